@@ -1,0 +1,85 @@
+//! The command line: `hybrid render`, `hybrid parity`, `hybrid report`.
+//!
+//! Every failure becomes one line on stderr naming what and where, and exit
+//! code 2; nothing is written under the output name unless the render
+//! succeeded.
+
+/// Prints a line to stdout; a closed pipe (`hybrid ... | head`) is not an
+/// error worth a panic.
+macro_rules! say {
+    ($($arg:tt)*) => {{
+        use std::io::Write;
+        let _ = writeln!(std::io::stdout().lock(), $($arg)*);
+    }};
+}
+
+mod render;
+
+use std::path::{Path, PathBuf};
+
+use clap::{Parser, Subcommand};
+
+use crate::scene::{collada, NormalMode, Scene};
+
+/// The project's own default scene (`dae/cornell.dae`), built into the
+/// binary so `hybrid render` works from any directory.
+pub const DEFAULT_SCENE: &str = include_str!("../../dae/cornell.dae");
+pub const DEFAULT_SCENE_NAME: &str = "dae/cornell.dae";
+
+#[derive(Parser, Debug)]
+#[command(
+    name = "hybrid",
+    version,
+    about = "Path tracer with two acceleration backends: an in-house SAH BVH and Embree"
+)]
+pub struct Cli {
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+#[derive(Subcommand, Debug)]
+pub enum Command {
+    /// Render a scene to an image.
+    Render(render::RenderArgs),
+}
+
+/// Runs the program; returns the exit code.
+pub fn main() -> i32 {
+    let cli = match Cli::try_parse() {
+        Ok(cli) => cli,
+        Err(e) => {
+            let code = if e.use_stderr() { 2 } else { 0 };
+            let _ = e.print();
+            return code;
+        }
+    };
+    let outcome = match cli.command {
+        Command::Render(args) => render::run(&args),
+    };
+    match outcome {
+        Ok(()) => 0,
+        Err(message) => {
+            eprintln!("hybrid: error: {message}");
+            2
+        }
+    }
+}
+
+/// Loads `path`, or the built-in default scene when there is none.
+pub fn load_scene(path: Option<&Path>, normals: NormalMode) -> Result<Scene, String> {
+    match path {
+        Some(p) => collada::load(p, normals).map_err(|e| e.to_string()),
+        None => {
+            collada::load_str(DEFAULT_SCENE, DEFAULT_SCENE_NAME, normals).map_err(|e| e.to_string())
+        }
+    }
+}
+
+/// Where shared scenes are: `HYBRID_SCENES`, else `../shared/scenes`
+/// beside the project.
+pub fn shared_scenes_dir() -> PathBuf {
+    match std::env::var_os("HYBRID_SCENES") {
+        Some(d) => PathBuf::from(d),
+        None => Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/scenes"),
+    }
+}

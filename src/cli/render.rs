@@ -1,0 +1,335 @@
+//! `hybrid render`: load, build the chosen backend, render, write, report.
+
+use std::io::IsTerminal;
+use std::path::PathBuf;
+use std::time::Instant;
+
+use clap::Args;
+
+use crate::accel::embree::{BuildQuality, EmbreeOptions};
+use crate::accel::native::bvh::BuildMethod;
+use crate::accel::native::triangle::TriangleMode;
+use crate::accel::native::NativeOptions;
+use crate::accel::{Accel, AccelKind, AccelOptions, Backend};
+use crate::render::camera::CameraMode;
+use crate::render::film::{rate_path, ToneMap};
+use crate::render::integrator::{BounceView, DirectEstimator, PathSettings, Shading};
+use crate::render::{render, Adaptive, Cell, Progress, RenderSettings};
+use crate::scene::NormalMode;
+
+#[derive(Args, Debug, Clone)]
+pub struct RenderArgs {
+    /// Scene file (.dae); the project's default scene when omitted.
+    pub scene: Option<PathBuf>,
+    /// Acceleration backend.
+    #[arg(long, value_enum, default_value_t = AccelKind::Native)]
+    pub accel: AccelKind,
+    /// Colour by the shading normal (n * 0.5 + 0.5) instead of path tracing.
+    #[arg(long)]
+    pub normals: bool,
+    /// Shade with flat (geometric) normals instead of smooth ones.
+    #[arg(long)]
+    pub flat: bool,
+    /// Camera placement: the reference framing, or the camera node's own.
+    #[arg(long, value_enum, default_value_t = CameraMode::Canonical)]
+    pub camera: CameraMode,
+    /// Resolution.
+    #[arg(short = 'r', num_args = 2, value_names = ["W", "H"], default_values_t = [480u32, 360])]
+    pub resolution: Vec<u32>,
+    /// Camera rays per pixel (the cap with -a).
+    #[arg(short = 's', default_value_t = 1)]
+    pub samples: u32,
+    /// Threads (default: all cores).
+    #[arg(short = 't', default_value_t = 0)]
+    pub threads: usize,
+    /// Seed: the same seed gives the same image for any thread count.
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+    /// Output image: .png (tone-mapped) or .exr (raw radiance).
+    #[arg(short = 'f')]
+    pub output: Option<PathBuf>,
+    /// Render one cell of the image only.
+    #[arg(short = 'p', num_args = 4, value_names = ["X", "Y", "DX", "DY"])]
+    pub cell: Option<Vec<u32>>,
+    /// Direct lighting by uniform hemisphere sampling (default: light sampling).
+    #[arg(short = 'H')]
+    pub hemisphere: bool,
+    /// Samples per area light (or hemisphere samples with -H).
+    #[arg(short = 'l', default_value_t = 1)]
+    pub light_samples: u32,
+    /// Maximum bounces (0: emitted light only, 1: direct lighting).
+    #[arg(short = 'm', default_value_t = 1)]
+    pub max_bounces: u32,
+    /// 1: accumulate bounces 0..=M; 0: only bounce M.
+    #[arg(short = 'o', default_value_t = 1, value_parser = clap::value_parser!(u8).range(0..=1))]
+    pub accumulate: u8,
+    /// Show only direct or only indirect light.
+    #[arg(long, value_enum, default_value_t = BounceView::All)]
+    pub only: BounceView,
+    /// Russian roulette with this continuation probability (0, 1].
+    #[arg(long = "rr", value_name = "P")]
+    pub russian_roulette: Option<f32>,
+    /// Adaptive sampling: batches of BATCH samples until the 95% interval
+    /// is within TOL of the mean.
+    #[arg(short = 'a', num_args = 2, value_names = ["BATCH", "TOL"])]
+    pub adaptive: Option<Vec<f64>>,
+    /// Native backend: ray/triangle test.
+    #[arg(long, value_enum, default_value_t = TriangleMode::MollerTrumbore)]
+    pub triangle: TriangleMode,
+    /// Native backend: build method.
+    #[arg(long, value_enum, default_value_t = BuildMethod::Sah)]
+    pub build: BuildMethod,
+    /// Native backend: largest leaf.
+    #[arg(long, default_value_t = 4)]
+    pub leaf: usize,
+    /// Embree backend: build quality.
+    #[arg(long, value_enum, default_value_t = BuildQuality::Medium)]
+    pub quality: BuildQuality,
+    /// Embree backend: robust scene flag.
+    #[arg(long)]
+    pub robust: bool,
+}
+
+impl RenderArgs {
+    /// Checks the options and turns them into render settings.
+    pub fn settings(&self) -> Result<RenderSettings, String> {
+        let (width, height) = (self.resolution[0], self.resolution[1]);
+        if width == 0 || height == 0 {
+            return Err(format!(
+                "-r {width} {height}: the resolution must be at least 1 x 1"
+            ));
+        }
+        if width > 1 << 15 || height > 1 << 15 {
+            return Err(format!(
+                "-r {width} {height}: the resolution is larger than 32768"
+            ));
+        }
+        if self.samples == 0 {
+            return Err("-s 0: at least one sample per pixel is needed".into());
+        }
+        if self.light_samples == 0 {
+            return Err("-l 0: at least one light sample is needed".into());
+        }
+        if self.leaf == 0 || self.leaf > 255 {
+            return Err(format!("--leaf {}: leaf size must be 1..=255", self.leaf));
+        }
+        if let Some(p) = self.russian_roulette {
+            if !(p > 0.0 && p <= 1.0) {
+                return Err(format!(
+                    "--rr {p}: the continuation probability must be in (0, 1]"
+                ));
+            }
+        }
+        let adaptive = match &self.adaptive {
+            Some(a) => {
+                let (batch, tolerance) = (a[0], a[1]);
+                if batch < 1.0
+                    || batch.fract() != 0.0
+                    || !(tolerance > 0.0)
+                    || !tolerance.is_finite()
+                {
+                    return Err(format!(
+                        "-a {batch} {tolerance}: BATCH must be a whole number >= 1 and TOL > 0"
+                    ));
+                }
+                Some(Adaptive {
+                    batch: batch as u32,
+                    tolerance: tolerance as f32,
+                })
+            }
+            None => None,
+        };
+        let cell = match &self.cell {
+            Some(c) => {
+                let cell = Cell {
+                    x: c[0],
+                    y: c[1],
+                    width: c[2],
+                    height: c[3],
+                };
+                if cell.width == 0
+                    || cell.height == 0
+                    || cell.x + cell.width > width
+                    || cell.y + cell.height > height
+                {
+                    return Err(format!(
+                        "-p {} {} {} {}: the cell must be non-empty and inside the {width} x {height} image",
+                        c[0], c[1], c[2], c[3]
+                    ));
+                }
+                Some(cell)
+            }
+            None => None,
+        };
+        let shading = if self.normals {
+            Shading::Normals
+        } else {
+            Shading::Path(PathSettings {
+                estimator: if self.hemisphere {
+                    DirectEstimator::Hemisphere
+                } else {
+                    DirectEstimator::LightSampling
+                },
+                light_samples: self.light_samples,
+                max_bounces: self.max_bounces,
+                accumulate: self.accumulate == 1,
+                view: self.only,
+                russian_roulette: self.russian_roulette,
+            })
+        };
+        Ok(RenderSettings {
+            width,
+            height,
+            samples: self.samples,
+            threads: self.threads,
+            seed: self.seed,
+            camera: self.camera,
+            shading,
+            adaptive,
+            cell,
+        })
+    }
+
+    pub fn accel_options(&self) -> AccelOptions {
+        AccelOptions {
+            native: NativeOptions {
+                triangle: self.triangle,
+                method: self.build,
+                max_leaf: self.leaf,
+            },
+            embree: EmbreeOptions {
+                quality: self.quality,
+                robust: self.robust,
+                threads: self.threads,
+            },
+        }
+    }
+
+    fn output_path(&self) -> PathBuf {
+        if let Some(f) = &self.output {
+            return f.clone();
+        }
+        let stem = self
+            .scene
+            .as_ref()
+            .and_then(|s| s.file_stem())
+            .and_then(|s| s.to_str())
+            .unwrap_or("cornell");
+        PathBuf::from(format!("{stem}.png"))
+    }
+}
+
+/// A progress bar on stderr, hidden when stderr is not a terminal.
+struct Bar(indicatif::ProgressBar);
+
+impl Progress for Bar {
+    fn row_done(&self) {
+        self.0.inc(1);
+    }
+}
+
+pub fn run(args: &RenderArgs) -> Result<(), String> {
+    let settings = args.settings()?;
+    let output = args.output_path();
+    match output
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(|e| e.to_ascii_lowercase())
+        .as_deref()
+    {
+        Some("png") | Some("exr") => {}
+        _ => {
+            return Err(format!(
+                "{}: unsupported output format (use .png or .exr)",
+                output.display()
+            ))
+        }
+    }
+    let normal_mode = if args.flat {
+        NormalMode::Flat
+    } else {
+        NormalMode::Smooth
+    };
+
+    let start = Instant::now();
+    let scene = super::load_scene(args.scene.as_deref(), normal_mode)?;
+    say!("{}", scene.summary());
+    say!(
+        "collected {} primitives in {:.1} ms",
+        scene.primitive_count(),
+        start.elapsed().as_secs_f64() * 1e3
+    );
+
+    let accel =
+        Backend::build(args.accel, &scene, &args.accel_options()).map_err(|e| e.to_string())?;
+    let stats = accel.stats();
+    match args.accel {
+        AccelKind::Native => say!(
+            "native BVH built in {:.1} ms: {} nodes, {} leaves, depth {}, SAH cost {:.2}, {:.1} MiB ({})",
+            stats.build_ms,
+            stats.nodes,
+            stats.leaves,
+            stats.depth,
+            stats.sah_cost,
+            stats.memory_bytes as f64 / (1 << 20) as f64,
+            stats.details
+        ),
+        AccelKind::Embree => say!(
+            "embree scene built in {:.1} ms: {}, {:.1} MiB",
+            stats.build_ms,
+            stats.details,
+            stats.memory_bytes as f64 / (1 << 20) as f64
+        ),
+        AccelKind::None => say!("no acceleration structure (brute force over {} primitives)", stats.primitives),
+    }
+
+    let rows = settings.cell.map_or(settings.height, |c| c.height);
+    let bar = indicatif::ProgressBar::with_draw_target(
+        Some(rows as u64),
+        indicatif::ProgressDrawTarget::stderr(),
+    );
+    if !std::io::stderr().is_terminal() {
+        bar.set_draw_target(indicatif::ProgressDrawTarget::hidden());
+    }
+    let result = render(&scene, &accel, &settings, &Bar(bar.clone()));
+    bar.finish_and_clear();
+
+    let map = if args.normals {
+        ToneMap::Identity
+    } else {
+        ToneMap::Reference
+    };
+    result.film.write(&output, map).map_err(|e| e.to_string())?;
+    let c = result.counters;
+    let mut line = format!(
+        "rendered {}x{} at {} spp in {:.2} s: {} rays, {:.2} Mrays/s",
+        settings.width,
+        settings.height,
+        settings.samples,
+        result.seconds,
+        c.rays,
+        result.mrays_per_second()
+    );
+    if args.accel != AccelKind::Embree && c.rays > 0 {
+        line += &format!(
+            ", {:.1} box tests and {:.1} primitive tests per ray",
+            c.box_tests as f64 / c.rays as f64,
+            c.prim_tests as f64 / c.rays as f64
+        );
+    }
+    say!("{line}");
+    if settings.adaptive.is_some() {
+        let rate = rate_path(&output);
+        result
+            .film
+            .write_rate(&rate, settings.samples)
+            .map_err(|e| e.to_string())?;
+        say!(
+            "adaptive sampling: {:.1} samples per pixel on average; rate image {}",
+            result.mean_samples(),
+            rate.display()
+        );
+    }
+    say!("wrote {}", output.display());
+    Ok(())
+}

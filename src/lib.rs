@@ -1,0 +1,13 @@
+//! `hybrid`: a physically based path tracer for COLLADA scenes whose
+//! acceleration layer has two real backends, an in-house SAH BVH and Embree.
+//!
+//! - [`scene`]: the scene model and the COLLADA loader.
+//! - [`accel`]: the accelerator trait and its backends (native BVH, Embree,
+//!   brute force).
+//! - [`render`]: camera, sampling, materials, lights, integrators and film.
+//! - [`cli`]: the command-line front end.
+
+pub mod accel;
+pub mod cli;
+pub mod render;
+pub mod scene;

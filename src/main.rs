@@ -1,0 +1,6 @@
+//! The `hybrid` binary: everything lives in the library; this only maps the
+//! outcome to an exit code.
+
+fn main() {
+    std::process::exit(hybrid::cli::main());
+}

@@ -1,0 +1,99 @@
+//! Light sampling: for a shading point, a direction towards a light, the
+//! radiance arriving along it, and its density (`sample_li`), plus what
+//! escaped rays see.
+
+use glam::Vec3;
+
+use super::sampling::{cosine_hemisphere, Frame, Rng};
+use crate::scene::Light;
+
+/// Incident light from one sample of a light.
+#[derive(Clone, Copy, Debug)]
+pub struct LightSample {
+    /// Unit direction from the shading point towards the light.
+    pub wi: Vec3,
+    /// Distance to the sampled point (infinite for lights at infinity).
+    pub distance: f32,
+    /// Incident radiance divided by the sample's density (solid angle), so
+    /// that `f * cos * contribution` is the estimate.
+    pub contribution: Vec3,
+}
+
+/// Samples `light` as seen from `p` with normal `n` (facing the side being
+/// lit). `None` when the sample carries no light.
+pub fn sample_li(light: &Light, p: Vec3, n: Vec3, rng: &mut Rng) -> Option<LightSample> {
+    match *light {
+        Light::Area(a) => {
+            let (s, t) = rng.next_2d();
+            let q = a.point_at(s, t);
+            let to = q - p;
+            let d2 = to.length_squared();
+            if d2 == 0.0 {
+                return None;
+            }
+            let distance = d2.sqrt();
+            let wi = to / distance;
+            let cos_light = -wi.dot(a.normal);
+            if cos_light <= 0.0 {
+                return None;
+            }
+            // Area density 1/A converted to solid angle: d^2 / (cos A).
+            let contribution = a.radiance * (cos_light * a.area / d2);
+            Some(LightSample {
+                wi,
+                distance,
+                contribution,
+            })
+        }
+        Light::Point {
+            position,
+            intensity,
+        } => {
+            let to = position - p;
+            let d2 = to.length_squared();
+            if d2 == 0.0 {
+                return None;
+            }
+            let distance = d2.sqrt();
+            Some(LightSample {
+                wi: to / distance,
+                distance,
+                contribution: intensity / d2,
+            })
+        }
+        Light::Directional { to_light, radiance } => Some(LightSample {
+            wi: to_light,
+            distance: f32::INFINITY,
+            contribution: radiance,
+        }),
+        Light::Ambient { radiance } => {
+            // Cosine-weighted around n: contribution = L / pdf = L pi / cos.
+            let (u, v) = rng.next_2d();
+            let local = cosine_hemisphere(u, v);
+            let wi = Frame::new(n).to_world(local);
+            if wi.y <= 0.0 || local.z <= 0.0 {
+                return None;
+            }
+            Some(LightSample {
+                wi,
+                distance: f32::INFINITY,
+                contribution: radiance * (std::f32::consts::PI / local.z),
+            })
+        }
+    }
+}
+
+/// Radiance that a ray escaping the scene in direction `dir` receives: the
+/// ambient lights' radiance from the +Y hemisphere.
+pub fn escaped_radiance(lights: &[Light], dir: Vec3) -> Vec3 {
+    if dir.y <= 0.0 {
+        return Vec3::ZERO;
+    }
+    lights
+        .iter()
+        .map(|l| match l {
+            Light::Ambient { radiance } => *radiance,
+            _ => Vec3::ZERO,
+        })
+        .sum()
+}

@@ -1,0 +1,218 @@
+//! Rendering: camera rays through the accelerator, integrated per pixel.
+//!
+//! - [`camera`]: ray generation and framing;
+//! - [`sampling`]: random numbers and warps;
+//! - [`material`], [`light`]: scattering and light sampling;
+//! - [`integrator`]: normal shading and the path tracer;
+//! - [`film`]: the image and its files.
+//!
+//! Rows are rendered in parallel on a rayon pool of `threads` threads. Every
+//! camera sample has its own random sequence (seed, pixel, sample index), so
+//! the image is the same for any thread count.
+
+pub mod camera;
+pub mod film;
+pub mod integrator;
+pub mod light;
+pub mod material;
+pub mod sampling;
+
+use std::time::Instant;
+
+use glam::Vec3;
+use rayon::prelude::*;
+
+use self::camera::{Camera, CameraMode};
+use self::film::Film;
+use self::integrator::{Integrator, Shading};
+use self::sampling::{luminance, Rng};
+use crate::accel::{Accel, TraceCounters};
+use crate::scene::Scene;
+
+/// Adaptive sampling (`-a BATCH TOL`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Adaptive {
+    pub batch: u32,
+    pub tolerance: f32,
+}
+
+/// A rectangle of pixels: `x, y, width, height`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Cell {
+    pub x: u32,
+    pub y: u32,
+    pub width: u32,
+    pub height: u32,
+}
+
+#[derive(Clone, Debug)]
+pub struct RenderSettings {
+    pub width: u32,
+    pub height: u32,
+    /// Samples per pixel (the cap, with adaptive sampling).
+    pub samples: u32,
+    /// Worker threads; 0 means all cores.
+    pub threads: usize,
+    pub seed: u64,
+    pub camera: CameraMode,
+    pub shading: Shading,
+    pub adaptive: Option<Adaptive>,
+    /// Render only this cell (the rest of the image stays black).
+    pub cell: Option<Cell>,
+}
+
+impl Default for RenderSettings {
+    fn default() -> Self {
+        RenderSettings {
+            width: 480,
+            height: 360,
+            samples: 1,
+            threads: 0,
+            seed: 0,
+            camera: CameraMode::Canonical,
+            shading: Shading::Normals,
+            adaptive: None,
+            cell: None,
+        }
+    }
+}
+
+/// A finished render and what it cost.
+pub struct RenderOutput {
+    pub film: Film,
+    pub counters: TraceCounters,
+    pub seconds: f64,
+}
+
+impl RenderOutput {
+    pub fn mrays_per_second(&self) -> f64 {
+        self.counters.rays as f64 / self.seconds.max(1e-9) / 1e6
+    }
+
+    pub fn mean_samples(&self) -> f64 {
+        let covered = self.film.samples.iter().filter(|&&n| n > 0).count().max(1);
+        self.film.samples.iter().map(|&n| n as f64).sum::<f64>() / covered as f64
+    }
+}
+
+/// Progress reporting, called once per finished row (never per ray).
+pub trait Progress: Sync {
+    fn row_done(&self);
+}
+
+/// No progress output.
+pub struct Silent;
+
+impl Progress for Silent {
+    fn row_done(&self) {}
+}
+
+/// Renders `scene` through `accel`.
+pub fn render<A: Accel>(
+    scene: &Scene,
+    accel: &A,
+    settings: &RenderSettings,
+    progress: &dyn Progress,
+) -> RenderOutput {
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(settings.threads)
+        .build();
+    let run = || render_rows(scene, accel, settings, progress);
+    match pool {
+        Ok(pool) => pool.install(run),
+        // Could not start a pool of that size: use the global one.
+        Err(_) => run(),
+    }
+}
+
+fn render_rows<A: Accel>(
+    scene: &Scene,
+    accel: &A,
+    settings: &RenderSettings,
+    progress: &dyn Progress,
+) -> RenderOutput {
+    let start = Instant::now();
+    let (w, h) = (settings.width, settings.height);
+    let camera = Camera::new(scene, settings.camera, w, h);
+    let integrator = Integrator::new(scene, accel, settings.shading);
+    let cell = settings.cell.unwrap_or(Cell {
+        x: 0,
+        y: 0,
+        width: w,
+        height: h,
+    });
+    let x_end = (cell.x + cell.width).min(w);
+    let y_end = (cell.y + cell.height).min(h);
+    let mut film = Film::new(w, h);
+    let totals: TraceCounters = film
+        .pixels
+        .par_chunks_mut(w as usize)
+        .zip(film.samples.par_chunks_mut(w as usize))
+        .enumerate()
+        .map(|(y, (row, counts))| {
+            let y = y as u32;
+            let mut counters = TraceCounters::default();
+            if y >= cell.y && y < y_end {
+                for x in cell.x..x_end {
+                    let (value, n) = pixel(&integrator, &camera, settings, x, y, &mut counters);
+                    row[x as usize] = value;
+                    counts[x as usize] = n;
+                }
+                progress.row_done();
+            }
+            counters
+        })
+        .reduce(TraceCounters::default, |mut a, b| {
+            a += b;
+            a
+        });
+    RenderOutput {
+        film,
+        counters: totals,
+        seconds: start.elapsed().as_secs_f64(),
+    }
+}
+
+/// Mean value of pixel `(x, y)` and the number of samples taken.
+fn pixel<A: Accel>(
+    integrator: &Integrator<A>,
+    camera: &Camera,
+    settings: &RenderSettings,
+    x: u32,
+    y: u32,
+    counters: &mut TraceCounters,
+) -> (Vec3, u32) {
+    let cap = settings.samples.max(1);
+    let batch = settings.adaptive.map_or(cap, |a| a.batch.max(1));
+    let mut sum = Vec3::ZERO;
+    let (mut s1, mut s2) = (0.0f64, 0.0f64);
+    let mut n = 0u32;
+    while n < cap {
+        let end = (n + batch).min(cap);
+        for i in n..end {
+            let mut rng = Rng::for_sample(settings.seed, x, y, i);
+            // One sample at the pixel centre when there is one sample;
+            // random positions inside the pixel otherwise.
+            let (dx, dy) = if cap == 1 { (0.5, 0.5) } else { rng.next_2d() };
+            let ray = camera.ray(x as f32 + dx, y as f32 + dy);
+            let value = integrator.radiance(&ray, &mut rng, counters);
+            sum += value;
+            let l = luminance(value) as f64;
+            s1 += l;
+            s2 += l * l;
+        }
+        n = end;
+        if let Some(a) = settings.adaptive {
+            if n >= 2 && n < cap {
+                let nf = n as f64;
+                let mean = s1 / nf;
+                let variance = ((s2 - s1 * s1 / nf) / (nf - 1.0)).max(0.0);
+                let interval = 1.96 * variance.sqrt() / nf.sqrt();
+                if interval <= a.tolerance as f64 * mean {
+                    break;
+                }
+            }
+        }
+    }
+    (sum / n as f32, n)
+}

@@ -1,0 +1,149 @@
+//! Random numbers and the warps from the unit square to directions.
+//!
+//! Every camera sample gets its own generator, derived from the seed, the
+//! pixel and the sample index, so an image never depends on how pixels are
+//! spread over threads, and a path's random numbers never depend on the
+//! settings of the paths before it.
+
+use glam::Vec3;
+
+/// PCG32 (O'Neill 2014, "PCG: a family of simple fast space-efficient
+/// statistically good algorithms for random number generation"), XSH-RR.
+#[derive(Clone, Debug)]
+pub struct Rng {
+    state: u64,
+    inc: u64,
+}
+
+/// SplitMix64 finalizer (Steele et al. 2014), to spread structured seeds.
+fn mix(mut z: u64) -> u64 {
+    z = z.wrapping_add(0x9E37_79B9_7F4A_7C15);
+    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+    z ^ (z >> 31)
+}
+
+impl Rng {
+    pub fn new(seed: u64, stream: u64) -> Rng {
+        let mut rng = Rng {
+            state: 0,
+            inc: (mix(stream) << 1) | 1,
+        };
+        rng.next_u32();
+        rng.state = rng.state.wrapping_add(mix(seed));
+        rng.next_u32();
+        rng
+    }
+
+    /// The generator of camera sample `sample` of pixel `(x, y)`.
+    pub fn for_sample(seed: u64, x: u32, y: u32, sample: u32) -> Rng {
+        let pixel = ((y as u64) << 32) | x as u64;
+        Rng::new(seed ^ mix(pixel), sample as u64)
+    }
+
+    #[inline]
+    pub fn next_u32(&mut self) -> u32 {
+        let old = self.state;
+        self.state = old
+            .wrapping_mul(6_364_136_223_846_793_005)
+            .wrapping_add(self.inc);
+        let xorshifted = (((old >> 18) ^ old) >> 27) as u32;
+        let rot = (old >> 59) as u32;
+        xorshifted.rotate_right(rot)
+    }
+
+    /// Uniform in [0, 1).
+    #[inline]
+    pub fn next_f32(&mut self) -> f32 {
+        (self.next_u32() >> 8) as f32 * (1.0 / (1u32 << 24) as f32)
+    }
+
+    #[inline]
+    pub fn next_2d(&mut self) -> (f32, f32) {
+        (self.next_f32(), self.next_f32())
+    }
+}
+
+/// An orthonormal frame around a unit normal (Duff et al. 2017, "Building an
+/// orthonormal basis, revisited").
+#[derive(Clone, Copy, Debug)]
+pub struct Frame {
+    pub s: Vec3,
+    pub t: Vec3,
+    pub n: Vec3,
+}
+
+impl Frame {
+    pub fn new(n: Vec3) -> Frame {
+        let sign = 1.0f32.copysign(n.z);
+        let a = -1.0 / (sign + n.z);
+        let b = n.x * n.y * a;
+        let s = Vec3::new(1.0 + sign * n.x * n.x * a, sign * b, -sign * n.x);
+        let t = Vec3::new(b, sign + n.y * n.y * a, -n.y);
+        Frame { s, t, n }
+    }
+
+    #[inline]
+    pub fn to_world(&self, v: Vec3) -> Vec3 {
+        self.s * v.x + self.t * v.y + self.n * v.z
+    }
+
+    #[inline]
+    pub fn to_local(&self, v: Vec3) -> Vec3 {
+        Vec3::new(v.dot(self.s), v.dot(self.t), v.dot(self.n))
+    }
+}
+
+/// Uniform direction on the +z hemisphere; pdf `1 / (2 pi)`.
+pub fn uniform_hemisphere(u: f32, v: f32) -> Vec3 {
+    let z = u;
+    let r = (1.0 - z * z).max(0.0).sqrt();
+    let phi = 2.0 * std::f32::consts::PI * v;
+    Vec3::new(r * phi.cos(), r * phi.sin(), z)
+}
+
+pub const UNIFORM_HEMISPHERE_PDF: f32 = 0.5 * std::f32::consts::FRAC_1_PI;
+
+/// Cosine-weighted direction on the +z hemisphere (Malley's method); pdf
+/// `cos / pi`.
+pub fn cosine_hemisphere(u: f32, v: f32) -> Vec3 {
+    let r = u.sqrt();
+    let phi = 2.0 * std::f32::consts::PI * v;
+    Vec3::new(r * phi.cos(), r * phi.sin(), (1.0 - u).max(0.0).sqrt())
+}
+
+/// Luminance (Rec. 709 weights): the "illuminance" of adaptive sampling.
+#[inline]
+pub fn luminance(c: Vec3) -> f32 {
+    0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn frames_are_orthonormal() {
+        for n in [
+            Vec3::Z,
+            -Vec3::Z,
+            Vec3::X,
+            Vec3::new(0.3, -0.5, 0.81).normalize(),
+        ] {
+            let f = Frame::new(n);
+            for (a, b) in [(f.s, f.t), (f.t, f.n), (f.s, f.n)] {
+                assert!(a.dot(b).abs() < 1e-5, "frame of {n} is not orthogonal");
+            }
+            let v = Vec3::new(0.2, 0.3, 0.9);
+            assert!((f.to_local(f.to_world(v)) - v).length() < 1e-5);
+        }
+    }
+
+    #[test]
+    fn samples_are_uniform_in_the_unit_interval() {
+        let mut rng = Rng::new(7, 0);
+        let n = 100_000;
+        let mean: f64 = (0..n).map(|_| rng.next_f32() as f64).sum::<f64>() / n as f64;
+        assert!((mean - 0.5).abs() < 0.005, "mean {mean}");
+    }
+}

@@ -1,0 +1,424 @@
+//! The scene model: geometry, materials, lights and camera in world space
+//! (Y-up), as loaded from a COLLADA file by [`collada`].
+//!
+//! Primitive ids are global: triangles come first (`0..triangle_count`), then
+//! spheres. Both accelerator backends report hits with these ids, and the
+//! shading data of a hit are derived here, from the scene, the same way for
+//! every backend.
+
+pub mod collada;
+
+use glam::{Mat4, Vec3};
+
+/// Which normal the shading uses.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum NormalMode {
+    /// Per-vertex normals (area-weighted face normals) interpolated with the
+    /// hit's barycentrics: what the reference renders use.
+    #[default]
+    Smooth,
+    /// The geometric normal of the triangle.
+    Flat,
+}
+
+/// All triangles of the scene in one indexed mesh, in world space.
+#[derive(Clone, Debug, Default)]
+pub struct TriangleMesh {
+    pub positions: Vec<Vec3>,
+    pub indices: Vec<[u32; 3]>,
+    /// Material index per triangle.
+    pub materials: Vec<u32>,
+    /// Per-vertex shading normals; empty in [`NormalMode::Flat`].
+    pub normals: Vec<Vec3>,
+}
+
+impl TriangleMesh {
+    pub fn len(&self) -> usize {
+        self.indices.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.indices.is_empty()
+    }
+
+    /// The three corners of triangle `i`.
+    #[inline]
+    pub fn corners(&self, i: usize) -> [Vec3; 3] {
+        let [a, b, c] = self.indices[i];
+        [
+            self.positions[a as usize],
+            self.positions[b as usize],
+            self.positions[c as usize],
+        ]
+    }
+
+    /// Unnormalized geometric normal `(v1 - v0) x (v2 - v0)`; its length is
+    /// twice the area.
+    #[inline]
+    pub fn face_normal(&self, i: usize) -> Vec3 {
+        let [a, b, c] = self.corners(i);
+        (b - a).cross(c - a)
+    }
+
+    /// Fills `normals` with the normalized, area-weighted sum of the face
+    /// normals around each vertex.
+    pub fn compute_smooth_normals(&mut self) {
+        let mut normals = vec![Vec3::ZERO; self.positions.len()];
+        for tri in &self.indices {
+            let [a, b, c] = *tri;
+            let (pa, pb, pc) = (
+                self.positions[a as usize],
+                self.positions[b as usize],
+                self.positions[c as usize],
+            );
+            let n = (pb - pa).cross(pc - pa);
+            for v in tri {
+                normals[*v as usize] += n;
+            }
+        }
+        for n in &mut normals {
+            *n = n.normalize_or_zero();
+        }
+        self.normals = normals;
+    }
+}
+
+/// An analytic sphere.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Sphere {
+    pub center: Vec3,
+    pub radius: f32,
+    pub material: u32,
+}
+
+/// How a surface scatters or emits light (`scene-format.md`, Materials).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Material {
+    Lambertian {
+        albedo: Vec3,
+    },
+    Emission {
+        radiance: Vec3,
+    },
+    Mirror {
+        reflectance: Vec3,
+    },
+    Glass {
+        reflectance: Vec3,
+        transmittance: Vec3,
+        roughness: f32,
+        ior: f32,
+    },
+    Refraction {
+        transmittance: Vec3,
+        roughness: f32,
+        ior: f32,
+    },
+    /// Rough conductor: Beckmann roughness `alpha`, complex IOR `eta + i k`.
+    Microfacet {
+        alpha: f32,
+        eta: Vec3,
+        k: Vec3,
+    },
+}
+
+impl Material {
+    /// Albedo used where a file gives no material.
+    pub const DEFAULT: Material = Material::Lambertian {
+        albedo: Vec3::splat(0.5),
+    };
+
+    /// Short name for summaries.
+    pub fn kind(&self) -> &'static str {
+        match self {
+            Material::Lambertian { .. } => "lambertian",
+            Material::Emission { .. } => "emission",
+            Material::Mirror { .. } => "mirror",
+            Material::Glass { .. } => "glass",
+            Material::Refraction { .. } => "refraction",
+            Material::Microfacet { .. } => "microfacet",
+        }
+    }
+}
+
+/// A planar emitter that light sampling can pick points on: a parallelogram
+/// (the file's rectangular area lights) or a triangle (emissive meshes).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct AreaLight {
+    /// A corner of the shape.
+    pub origin: Vec3,
+    pub edge_u: Vec3,
+    pub edge_v: Vec3,
+    /// True for a triangle `origin, origin + edge_u, origin + edge_v`.
+    pub triangle: bool,
+    /// Unit normal of the emitting side.
+    pub normal: Vec3,
+    pub radiance: Vec3,
+    pub area: f32,
+}
+
+impl AreaLight {
+    /// The point at `(s, t)` in the unit square, mapped uniformly onto the
+    /// shape (triangles use the square-root warp, pbrt-v4 §A.5.5).
+    #[inline]
+    pub fn point_at(&self, s: f32, t: f32) -> Vec3 {
+        if self.triangle {
+            let r = s.sqrt();
+            self.origin + self.edge_u * (r * (1.0 - t)) + self.edge_v * (r * t)
+        } else {
+            self.origin + self.edge_u * s + self.edge_v * t
+        }
+    }
+}
+
+/// The lights of `scene-format.md`, with the project's physically consistent
+/// choices (point lights fall off with 1/r²).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Light {
+    Area(AreaLight),
+    /// Intensity `intensity` (W/sr per channel) at `position`.
+    Point {
+        position: Vec3,
+        intensity: Vec3,
+    },
+    /// Irradiance `radiance` on a surface facing `to_light`.
+    Directional {
+        to_light: Vec3,
+        radiance: Vec3,
+    },
+    /// Uniform radiance arriving from the world's +Y hemisphere.
+    Ambient {
+        radiance: Vec3,
+    },
+}
+
+impl Light {
+    pub fn kind(&self) -> &'static str {
+        match self {
+            Light::Area(l) if l.triangle => "emissive triangle",
+            Light::Area(_) => "area",
+            Light::Point { .. } => "point",
+            Light::Directional { .. } => "directional",
+            Light::Ambient { .. } => "ambient",
+        }
+    }
+
+    /// True for lights with a delta distribution, which take one sample.
+    pub fn is_delta(&self) -> bool {
+        matches!(self, Light::Point { .. } | Light::Directional { .. })
+    }
+}
+
+/// The camera as the file states it; [`crate::render::camera`] turns it into
+/// rays with the chosen framing.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CameraSpec {
+    /// World transform of the camera node (global up-axis matrix included).
+    pub transform: Mat4,
+    /// Horizontal and vertical fields of view in degrees.
+    pub xfov: f32,
+    pub yfov: f32,
+}
+
+impl Default for CameraSpec {
+    fn default() -> Self {
+        CameraSpec {
+            transform: Mat4::IDENTITY,
+            xfov: 50.0,
+            yfov: 50.0,
+        }
+    }
+}
+
+/// Axis-aligned bounding box.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Bounds {
+    pub min: Vec3,
+    pub max: Vec3,
+}
+
+impl Default for Bounds {
+    fn default() -> Self {
+        Bounds::EMPTY
+    }
+}
+
+impl Bounds {
+    pub const EMPTY: Bounds = Bounds {
+        min: Vec3::splat(f32::INFINITY),
+        max: Vec3::splat(f32::NEG_INFINITY),
+    };
+
+    pub fn grow(&mut self, p: Vec3) {
+        self.min = self.min.min(p);
+        self.max = self.max.max(p);
+    }
+
+    pub fn union(self, o: Bounds) -> Bounds {
+        Bounds {
+            min: self.min.min(o.min),
+            max: self.max.max(o.max),
+        }
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.min.x > self.max.x
+    }
+
+    pub fn center(&self) -> Vec3 {
+        (self.min + self.max) * 0.5
+    }
+
+    pub fn extent(&self) -> Vec3 {
+        self.max - self.min
+    }
+}
+
+/// A loaded scene.
+#[derive(Clone, Debug, Default)]
+pub struct Scene {
+    /// Where the scene came from (for messages).
+    pub name: String,
+    pub mesh: TriangleMesh,
+    pub spheres: Vec<Sphere>,
+    pub materials: Vec<Material>,
+    pub lights: Vec<Light>,
+    pub camera: CameraSpec,
+    /// Bounds of the file's meshes and spheres (lights excluded): what the
+    /// canonical camera frames.
+    pub framing_bounds: Bounds,
+    pub normal_mode: NormalMode,
+    /// Number of polygons in the file before triangulation.
+    pub polygon_count: usize,
+    /// Zero-area triangles skipped at load.
+    pub degenerate_triangles: usize,
+}
+
+/// Shading data of a hit, derived from the scene.
+#[derive(Clone, Copy, Debug)]
+pub struct SurfacePoint {
+    pub position: Vec3,
+    /// Unit geometric normal (triangle winding / sphere outward).
+    pub geometric_normal: Vec3,
+    /// Unit shading normal, on the same side as `geometric_normal`.
+    pub shading_normal: Vec3,
+    pub material: u32,
+}
+
+impl Scene {
+    pub fn triangle_count(&self) -> usize {
+        self.mesh.len()
+    }
+
+    pub fn primitive_count(&self) -> usize {
+        self.mesh.len() + self.spheres.len()
+    }
+
+    /// Bounds of every primitive, light geometry included.
+    pub fn bounds(&self) -> Bounds {
+        let mut b = Bounds::EMPTY;
+        for p in &self.mesh.positions {
+            b.grow(*p);
+        }
+        for s in &self.spheres {
+            b.grow(s.center - Vec3::splat(s.radius));
+            b.grow(s.center + Vec3::splat(s.radius));
+        }
+        b
+    }
+
+    /// The material of primitive `prim`.
+    pub fn material_of(&self, prim: u32) -> u32 {
+        let p = prim as usize;
+        if p < self.mesh.len() {
+            self.mesh.materials[p]
+        } else {
+            self.spheres[p - self.mesh.len()].material
+        }
+    }
+
+    /// Shading data for a hit at `position` on primitive `prim` with
+    /// barycentrics `(u, v)` (weights of corners 1 and 2). Both backends' hits
+    /// go through here, so shading never depends on the backend.
+    pub fn surface_point(&self, prim: u32, position: Vec3, u: f32, v: f32) -> SurfacePoint {
+        let p = prim as usize;
+        if p < self.mesh.len() {
+            let ng = self.mesh.face_normal(p).normalize_or_zero();
+            let ns = match self.normal_mode {
+                NormalMode::Flat => ng,
+                NormalMode::Smooth => {
+                    let [a, b, c] = self.mesh.indices[p];
+                    let n = self.mesh.normals[a as usize] * (1.0 - u - v)
+                        + self.mesh.normals[b as usize] * u
+                        + self.mesh.normals[c as usize] * v;
+                    let n = n.normalize_or_zero();
+                    if n == Vec3::ZERO {
+                        ng
+                    } else if n.dot(ng) < 0.0 {
+                        -n
+                    } else {
+                        n
+                    }
+                }
+            };
+            SurfacePoint {
+                position,
+                geometric_normal: ng,
+                shading_normal: ns,
+                material: self.mesh.materials[p],
+            }
+        } else {
+            let s = &self.spheres[p - self.mesh.len()];
+            let n = ((position - s.center) / s.radius).normalize_or_zero();
+            SurfacePoint {
+                position,
+                geometric_normal: n,
+                shading_normal: n,
+                material: s.material,
+            }
+        }
+    }
+
+    /// One paragraph describing the scene.
+    pub fn summary(&self) -> String {
+        let count = |list: &[&str]| -> String {
+            let mut out: Vec<(String, usize)> = Vec::new();
+            for k in list {
+                match out.iter_mut().find(|(name, _)| name == k) {
+                    Some(e) => e.1 += 1,
+                    None => out.push((k.to_string(), 1)),
+                }
+            }
+            out.iter()
+                .map(|(k, n)| format!("{n} {k}"))
+                .collect::<Vec<_>>()
+                .join(", ")
+        };
+        let light_kinds: Vec<&str> = self.lights.iter().map(|l| l.kind()).collect();
+        let material_kinds: Vec<&str> = self.materials.iter().map(|m| m.kind()).collect();
+        let b = self.framing_bounds;
+        format!(
+            "scene {}: {} primitives ({} triangles from {} polygons{}, {} spheres); {} lights ({}); {} materials ({}); bounds [{:.3} {:.3} {:.3}] .. [{:.3} {:.3} {:.3}]; {} normals",
+            self.name,
+            self.primitive_count(),
+            self.triangle_count(),
+            self.polygon_count,
+            if self.degenerate_triangles > 0 { format!(", {} zero-area triangles skipped", self.degenerate_triangles) } else { String::new() },
+            self.spheres.len(),
+            self.lights.len(),
+            if self.lights.is_empty() { "none".into() } else { count(&light_kinds) },
+            self.materials.len(),
+            count(&material_kinds),
+            b.min.x,
+            b.min.y,
+            b.min.z,
+            b.max.x,
+            b.max.y,
+            b.max.z,
+            match self.normal_mode {
+                NormalMode::Smooth => "smooth",
+                NormalMode::Flat => "flat",
+            }
+        )
+    }
+}
