@@ -5,9 +5,11 @@
 //! - [`accel`]: the accelerator trait and its backends (native BVH, Embree,
 //!   brute force).
 //! - [`render`]: camera, sampling, materials, lights, integrators and film.
+//! - [`parity`]: the cross-backend agreement and numerical-stability suite.
 //! - [`cli`]: the command-line front end.
 
 pub mod accel;
 pub mod cli;
+pub mod parity;
 pub mod render;
 pub mod scene;

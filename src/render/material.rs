@@ -26,11 +26,13 @@ pub fn is_specular(m: &Material) -> bool {
     )
 }
 
-/// Radiance emitted towards `wo_local` (front side only).
-pub fn emitted(m: &Material, wo_local_z: f32) -> Vec3 {
-    match m {
-        Material::Emission { radiance } if wo_local_z > 0.0 => *radiance,
-        _ => Vec3::ZERO,
+/// Radiance emitted towards a direction whose cosine with the geometric
+/// normal is `cos` (front side only).
+pub fn emitted(m: &Material, cos: f32) -> Vec3 {
+    if cos > 0.0 {
+        m.emission()
+    } else {
+        Vec3::ZERO
     }
 }
 
@@ -40,7 +42,7 @@ pub fn eval(m: &Material, wo: Vec3, wi: Vec3) -> Vec3 {
         return Vec3::ZERO;
     }
     match *m {
-        Material::Lambertian { albedo } => albedo * FRAC_1_PI,
+        Material::Lambertian { albedo, .. } => albedo * FRAC_1_PI,
         Material::Microfacet { alpha, eta, k } => {
             let h = (wo + wi).normalize_or_zero();
             if h == Vec3::ZERO {
@@ -58,7 +60,7 @@ pub fn eval(m: &Material, wo: Vec3, wi: Vec3) -> Vec3 {
 pub fn sample(m: &Material, wo: Vec3, rng: &mut Rng) -> Option<BsdfSample> {
     let (u, v) = rng.next_2d();
     match *m {
-        Material::Lambertian { albedo } => {
+        Material::Lambertian { albedo, .. } => {
             if wo.z <= 0.0 {
                 return None;
             }

@@ -602,9 +602,7 @@ impl<'a, 'input> Loader<'a, 'input> {
                 if v.len() < 3 {
                     return Err(self.error(c, "a colour needs three numbers"));
                 }
-                Ok(Material::Lambertian {
-                    albedo: Vec3::new(v[0], v[1], v[2]),
-                })
+                Ok(Material::lambertian(Vec3::new(v[0], v[1], v[2])))
             }
             None => Ok(Material::DEFAULT),
         }
@@ -714,30 +712,14 @@ impl<'a, 'input> Loader<'a, 'input> {
         })
     }
 
-    /// Adds the geometry that lights have: the rectangles of area lights
-    /// (two triangles each, wound so that the geometric normal is the
-    /// emitting side) with an emission material of the light's radiance,
-    /// and a triangle light for every triangle of an emissive mesh, so that
-    /// light sampling and hemisphere sampling see the same emitters.
+    /// Adds the rectangles of area lights as geometry (two triangles each,
+    /// wound so that the geometric normal is the emitting side) with an
+    /// emission material of the light's radiance, so camera rays and
+    /// bounces see them. Emitting triangles of the file's own meshes get a
+    /// triangle light each, once, before the rectangles (which already have
+    /// their light).
     fn add_light_geometry(&mut self) {
-        let mut emitters: Vec<Light> = Vec::new();
-        for i in 0..self.scene.mesh.len() {
-            if let Material::Emission { radiance } =
-                self.scene.materials[self.scene.mesh.materials[i] as usize]
-            {
-                let [a, b, c] = self.scene.mesh.corners(i);
-                let n = (b - a).cross(c - a);
-                emitters.push(Light::Area(AreaLight {
-                    origin: a,
-                    edge_u: b - a,
-                    edge_v: c - a,
-                    triangle: true,
-                    normal: n.normalize(),
-                    radiance,
-                    area: 0.5 * n.length(),
-                }));
-            }
-        }
+        self.scene.add_emissive_triangle_lights();
         let quads: Vec<AreaLight> = self
             .scene
             .lights
@@ -766,7 +748,6 @@ impl<'a, 'input> Loader<'a, 'input> {
                 self.scene.mesh.materials.push(material);
             }
         }
-        self.scene.lights.extend(emitters);
     }
 
     fn floats(&self, node: Node, expected: Option<usize>) -> Result<Vec<f32>> {

@@ -7,6 +7,7 @@
 //! every backend.
 
 pub mod collada;
+pub mod generate;
 
 use glam::{Mat4, Vec3};
 
@@ -94,8 +95,11 @@ pub struct Sphere {
 /// How a surface scatters or emits light (`scene-format.md`, Materials).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Material {
+    /// Diffuse reflection. `emission` (one-sided, front face) is zero for
+    /// every file; generated scenes such as the white furnace use it.
     Lambertian {
         albedo: Vec3,
+        emission: Vec3,
     },
     Emission {
         radiance: Vec3,
@@ -126,7 +130,25 @@ impl Material {
     /// Albedo used where a file gives no material.
     pub const DEFAULT: Material = Material::Lambertian {
         albedo: Vec3::splat(0.5),
+        emission: Vec3::ZERO,
     };
+
+    /// A Lambertian material that does not emit.
+    pub fn lambertian(albedo: Vec3) -> Material {
+        Material::Lambertian {
+            albedo,
+            emission: Vec3::ZERO,
+        }
+    }
+
+    /// Radiance emitted from the front face.
+    pub fn emission(&self) -> Vec3 {
+        match *self {
+            Material::Emission { radiance } => radiance,
+            Material::Lambertian { emission, .. } => emission,
+            _ => Vec3::ZERO,
+        }
+    }
 
     /// Short name for summaries.
     pub fn kind(&self) -> &'static str {
@@ -325,6 +347,28 @@ impl Scene {
             b.grow(s.center + Vec3::splat(s.radius));
         }
         b
+    }
+
+    /// Adds a triangle light for every triangle whose material emits, so
+    /// that light sampling sees the same emitters as hemisphere sampling.
+    pub fn add_emissive_triangle_lights(&mut self) {
+        for i in 0..self.mesh.len() {
+            let radiance = self.materials[self.mesh.materials[i] as usize].emission();
+            if radiance == Vec3::ZERO {
+                continue;
+            }
+            let [a, b, c] = self.mesh.corners(i);
+            let n = (b - a).cross(c - a);
+            self.lights.push(Light::Area(AreaLight {
+                origin: a,
+                edge_u: b - a,
+                edge_v: c - a,
+                triangle: true,
+                normal: n.normalize(),
+                radiance,
+                area: 0.5 * n.length(),
+            }));
+        }
     }
 
     /// The material of primitive `prim`.

@@ -1,0 +1,129 @@
+//! The ray sets the parity suite sends through every backend. All are
+//! deterministic for a seed, so every backend sees exactly the same rays.
+
+use glam::Vec3;
+
+use crate::accel::{Accel, Ray, TraceCounters};
+use crate::render::camera::{Camera, CameraMode};
+use crate::render::integrator::spawn_ray;
+use crate::render::light::sample_li;
+use crate::render::sampling::{cosine_hemisphere, Frame, Rng};
+use crate::scene::Scene;
+
+/// Uniform direction on the unit sphere.
+pub fn uniform_sphere(u: f32, v: f32) -> Vec3 {
+    let z = 1.0 - 2.0 * u;
+    let r = (1.0 - z * z).max(0.0).sqrt();
+    let phi = 2.0 * std::f32::consts::PI * v;
+    Vec3::new(r * phi.cos(), r * phi.sin(), z)
+}
+
+/// Camera rays at random positions over a `width x height` image.
+pub fn camera_rays(scene: &Scene, n: usize, seed: u64) -> Vec<Ray> {
+    let (w, h) = (320u32, 240u32);
+    let camera = Camera::new(scene, CameraMode::Canonical, w, h);
+    let mut rng = Rng::new(seed, 1);
+    (0..n)
+        .map(|_| camera.ray(rng.next_f32() * w as f32, rng.next_f32() * h as f32))
+        .collect()
+}
+
+/// Rays from random points inside the scene's bounds (grown by 10%) in
+/// uniformly random directions.
+pub fn random_rays(scene: &Scene, n: usize, seed: u64) -> Vec<Ray> {
+    let b = scene.bounds();
+    let pad = b.extent() * 0.1;
+    let (lo, size) = (b.min - pad, b.extent() + 2.0 * pad);
+    let mut rng = Rng::new(seed, 2);
+    (0..n)
+        .map(|_| {
+            let o = lo + size * Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32());
+            let (u, v) = rng.next_2d();
+            Ray::new(o, uniform_sphere(u, v))
+        })
+        .collect()
+}
+
+/// Real hit points of camera rays, found with `reference`: position,
+/// geometric normal facing the camera.
+fn surface_points<A: Accel>(
+    scene: &Scene,
+    reference: &A,
+    n: usize,
+    seed: u64,
+) -> Vec<(Vec3, Vec3)> {
+    let mut counters = TraceCounters::default();
+    let mut out = Vec::with_capacity(n);
+    let mut attempt = 0;
+    while out.len() < n && attempt < 20 {
+        for ray in camera_rays(scene, n, seed.wrapping_add(attempt)) {
+            if let Some(hit) = reference.closest_hit(&ray, &mut counters) {
+                let ng = if hit.normal.dot(ray.dir) > 0.0 {
+                    -hit.normal
+                } else {
+                    hit.normal
+                };
+                out.push((ray.at(hit.t), ng));
+                if out.len() == n {
+                    break;
+                }
+            }
+        }
+        attempt += 1;
+    }
+    out
+}
+
+/// Cosine-distributed rays leaving real hit points with the project's spawn
+/// rule.
+pub fn bounce_rays<A: Accel>(scene: &Scene, reference: &A, n: usize, seed: u64) -> Vec<Ray> {
+    let mut rng = Rng::new(seed, 3);
+    surface_points(scene, reference, n, seed)
+        .into_iter()
+        .map(|(p, ng)| {
+            let (u, v) = rng.next_2d();
+            let dir = Frame::new(ng).to_world(cosine_hemisphere(u, v));
+            spawn_ray(p, ng, dir, f32::INFINITY)
+        })
+        .collect()
+}
+
+/// Shadow rays from real hit points towards light samples, with `t_max`
+/// stopping short of the light (as the integrator sends them).
+pub fn shadow_rays<A: Accel>(scene: &Scene, reference: &A, n: usize, seed: u64) -> Vec<Ray> {
+    let mut rng = Rng::new(seed, 4);
+    if scene.lights.is_empty() {
+        return Vec::new();
+    }
+    surface_points(scene, reference, n, seed)
+        .into_iter()
+        .filter_map(|(p, ng)| {
+            let light = &scene.lights[(rng.next_u32() as usize) % scene.lights.len()];
+            let ls = sample_li(light, p, ng, &mut rng)?;
+            Some(spawn_ray(p, ng, ls.wi, ls.distance * (1.0 - 1e-4)))
+        })
+        .collect()
+}
+
+/// Rays that skim surfaces: from just above a real hit point, nearly
+/// parallel to the surface (within 0.5 degrees).
+pub fn grazing_rays<A: Accel>(scene: &Scene, reference: &A, n: usize, seed: u64) -> Vec<Ray> {
+    let mut rng = Rng::new(seed, 5);
+    surface_points(scene, reference, n, seed)
+        .into_iter()
+        .map(|(p, ng)| {
+            let frame = Frame::new(ng);
+            let phi = 2.0 * std::f32::consts::PI * rng.next_f32();
+            let elevation = (rng.next_f32() - 0.5) * 0.5f32.to_radians() * 2.0;
+            let local = Vec3::new(
+                phi.cos() * elevation.cos(),
+                phi.sin() * elevation.cos(),
+                elevation.sin(),
+            );
+            // Start back along the skim direction so the ray crosses p.
+            let dir = frame.to_world(local);
+            let back = scene.bounds().extent().length() * 0.05;
+            Ray::new(p - dir * back + ng * 1e-4 * back, dir)
+        })
+        .collect()
+}

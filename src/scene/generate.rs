@@ -1,0 +1,220 @@
+//! Scenes made in code: the white furnace, closed test meshes for the
+//! parity suite, and meshes of any size for the scaling study.
+
+use glam::{Mat4, Vec3};
+
+use super::{Bounds, CameraSpec, Light, Material, NormalMode, Scene, Sphere};
+
+/// Builds a [`Scene`] piece by piece, finished like a loaded one.
+pub struct SceneBuilder {
+    scene: Scene,
+}
+
+impl SceneBuilder {
+    pub fn new(name: &str) -> SceneBuilder {
+        let scene = Scene {
+            name: name.to_string(),
+            ..Scene::default()
+        };
+        SceneBuilder { scene }
+    }
+
+    pub fn material(&mut self, m: Material) -> u32 {
+        self.scene.materials.push(m);
+        self.scene.materials.len() as u32 - 1
+    }
+
+    /// Adds triangles (indices into `positions`) with one material.
+    pub fn mesh(&mut self, positions: &[Vec3], triangles: &[[u32; 3]], material: u32) -> &mut Self {
+        let base = self.scene.mesh.positions.len() as u32;
+        self.scene.mesh.positions.extend_from_slice(positions);
+        for t in triangles {
+            self.scene
+                .mesh
+                .indices
+                .push([t[0] + base, t[1] + base, t[2] + base]);
+            self.scene.mesh.materials.push(material);
+        }
+        self.scene.polygon_count += triangles.len();
+        self
+    }
+
+    pub fn sphere(&mut self, center: Vec3, radius: f32, material: u32) -> &mut Self {
+        self.scene.spheres.push(Sphere {
+            center,
+            radius,
+            material,
+        });
+        self
+    }
+
+    pub fn light(&mut self, light: Light) -> &mut Self {
+        self.scene.lights.push(light);
+        self
+    }
+
+    /// A camera at `position` looking at `target` (node placement).
+    pub fn camera(&mut self, position: Vec3, target: Vec3, xfov: f32, yfov: f32) -> &mut Self {
+        let view = Mat4::look_at_rh(position, target, Vec3::Y);
+        self.scene.camera = CameraSpec {
+            transform: view.inverse(),
+            xfov,
+            yfov,
+        };
+        self
+    }
+
+    pub fn finish(mut self, normal_mode: NormalMode) -> Scene {
+        self.scene.framing_bounds = self.scene.bounds();
+        if self.scene.framing_bounds.is_empty() {
+            self.scene.framing_bounds = Bounds {
+                min: Vec3::splat(-1.0),
+                max: Vec3::splat(1.0),
+            };
+        }
+        self.scene.add_emissive_triangle_lights();
+        self.scene.normal_mode = normal_mode;
+        if normal_mode == NormalMode::Smooth {
+            self.scene.mesh.compute_smooth_normals();
+        }
+        self.scene
+    }
+}
+
+/// An axis-aligned box `[-1, 1]^3` as 12 triangles, wound outward (or
+/// inward with `inward`).
+pub fn cube(inward: bool) -> (Vec<Vec3>, Vec<[u32; 3]>) {
+    let positions: Vec<Vec3> = (0..8)
+        .map(|i| {
+            Vec3::new(
+                if i & 4 != 0 { 1.0 } else { -1.0 },
+                if i & 2 != 0 { 1.0 } else { -1.0 },
+                if i & 1 != 0 { 1.0 } else { -1.0 },
+            )
+        })
+        .collect();
+    // Quads wound counter-clockwise seen from outside.
+    let quads = [
+        [0, 1, 3, 2],
+        [4, 6, 7, 5],
+        [0, 4, 5, 1],
+        [2, 3, 7, 6],
+        [0, 2, 6, 4],
+        [1, 5, 7, 3],
+    ];
+    let mut tris = Vec::new();
+    for q in quads {
+        for t in [[q[0], q[1], q[2]], [q[0], q[2], q[3]]] {
+            tris.push(if inward { [t[0], t[2], t[1]] } else { t });
+        }
+    }
+    (positions, tris)
+}
+
+/// A unit icosphere: the icosahedron subdivided `level` times (20 * 4^level
+/// triangles), vertices shared, wound outward.
+pub fn icosphere(level: u32) -> (Vec<Vec3>, Vec<[u32; 3]>) {
+    let t = (1.0 + 5f32.sqrt()) / 2.0;
+    let mut positions: Vec<Vec3> = [
+        (-1.0, t, 0.0),
+        (1.0, t, 0.0),
+        (-1.0, -t, 0.0),
+        (1.0, -t, 0.0),
+        (0.0, -1.0, t),
+        (0.0, 1.0, t),
+        (0.0, -1.0, -t),
+        (0.0, 1.0, -t),
+        (t, 0.0, -1.0),
+        (t, 0.0, 1.0),
+        (-t, 0.0, -1.0),
+        (-t, 0.0, 1.0),
+    ]
+    .iter()
+    .map(|&(x, y, z)| Vec3::new(x, y, z).normalize())
+    .collect();
+    let mut tris: Vec<[u32; 3]> = vec![
+        [0, 11, 5],
+        [0, 5, 1],
+        [0, 1, 7],
+        [0, 7, 10],
+        [0, 10, 11],
+        [1, 5, 9],
+        [5, 11, 4],
+        [11, 10, 2],
+        [10, 7, 6],
+        [7, 1, 8],
+        [3, 9, 4],
+        [3, 4, 2],
+        [3, 2, 6],
+        [3, 6, 8],
+        [3, 8, 9],
+        [4, 9, 5],
+        [2, 4, 11],
+        [6, 2, 10],
+        [8, 6, 7],
+        [9, 8, 1],
+    ];
+    for _ in 0..level {
+        let mut midpoints = std::collections::HashMap::new();
+        let mut mid = |a: u32, b: u32, positions: &mut Vec<Vec3>| -> u32 {
+            let key = (a.min(b), a.max(b));
+            *midpoints.entry(key).or_insert_with(|| {
+                positions.push(((positions[a as usize] + positions[b as usize]) * 0.5).normalize());
+                positions.len() as u32 - 1
+            })
+        };
+        let mut next = Vec::with_capacity(tris.len() * 4);
+        for [a, b, c] in tris {
+            let ab = mid(a, b, &mut positions);
+            let bc = mid(b, c, &mut positions);
+            let ca = mid(c, a, &mut positions);
+            next.extend([[a, ab, ca], [b, bc, ab], [c, ca, bc], [ab, bc, ca]]);
+        }
+        tris = next;
+    }
+    (positions, tris)
+}
+
+/// A flat `n x n` grid of quads (2 n^2 triangles) on `z = 0` over
+/// `[-1, 1]^2`, normal +z.
+pub fn plate(n: u32) -> (Vec<Vec3>, Vec<[u32; 3]>) {
+    let mut positions = Vec::with_capacity(((n + 1) * (n + 1)) as usize);
+    for j in 0..=n {
+        for i in 0..=n {
+            positions.push(Vec3::new(
+                -1.0 + 2.0 * i as f32 / n as f32,
+                -1.0 + 2.0 * j as f32 / n as f32,
+                0.0,
+            ));
+        }
+    }
+    let mut tris = Vec::with_capacity((2 * n * n) as usize);
+    for j in 0..n {
+        for i in 0..n {
+            let v = |di: u32, dj: u32| (j + dj) * (n + 1) + i + di;
+            tris.push([v(0, 0), v(1, 0), v(1, 1)]);
+            tris.push([v(0, 0), v(1, 1), v(0, 1)]);
+        }
+    }
+    (positions, tris)
+}
+
+/// The white furnace: the camera inside a closed box whose walls are all
+/// Lambertian with `albedo` and emit `emission` inwards. The radiance
+/// everywhere is `emission * sum_{k=0..M} albedo^k` with `M` bounces.
+pub fn white_furnace(albedo: f32, emission: f32) -> Scene {
+    let mut b = SceneBuilder::new("white furnace");
+    let m = b.material(Material::Lambertian {
+        albedo: Vec3::splat(albedo),
+        emission: Vec3::splat(emission),
+    });
+    let (p, t) = cube(true);
+    b.mesh(&p, &t, m);
+    b.camera(
+        Vec3::new(0.1, 0.05, 0.2),
+        Vec3::new(0.3, -0.2, -1.0),
+        60.0,
+        45.0,
+    );
+    b.finish(NormalMode::Flat)
+}

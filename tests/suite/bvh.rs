@@ -1,0 +1,261 @@
+//! The native BVH: structural invariants, SAH quality, and agreement with
+//! brute force on random rays.
+
+use hybrid::accel::brute::BruteForce;
+use hybrid::accel::native::bvh::{BuildMethod, Bvh};
+use hybrid::accel::native::triangle::TriangleMode;
+use hybrid::accel::native::{NativeBvh, NativeOptions};
+use hybrid::accel::{Accel, Hit, Ray, TraceCounters};
+use hybrid::parity::rays;
+use hybrid::scene::{Bounds, Scene};
+
+use crate::common::{self, scene_or_skip};
+
+fn check_invariants(name: &str, bvh: &Bvh, boxes: &[Bounds], max_leaf: usize) {
+    let mut seen = vec![0u32; boxes.len()];
+    let inside = |inner: &Bounds, outer: &Bounds| {
+        inner.min.cmpge(outer.min).all() && inner.max.cmple(outer.max).all()
+    };
+    let mut stack = vec![0usize];
+    while let Some(i) = stack.pop() {
+        let node = &bvh.nodes[i];
+        if node.is_leaf() {
+            assert!(
+                node.count as usize <= max_leaf,
+                "{name}: leaf {i} holds {} > {max_leaf}",
+                node.count
+            );
+            for slot in node.offset as usize..(node.offset + node.count as u32) as usize {
+                let prim = bvh.prim_order[slot] as usize;
+                seen[prim] += 1;
+                assert!(
+                    inside(&boxes[prim], &node.bounds()),
+                    "{name}: primitive {prim} sticks out of leaf {i}"
+                );
+            }
+        } else {
+            for child in [i + 1, node.offset as usize] {
+                assert!(
+                    inside(&bvh.nodes[child].bounds(), &node.bounds()),
+                    "{name}: child {child} outside parent {i}"
+                );
+                stack.push(child);
+            }
+        }
+    }
+    let missing = seen.iter().filter(|&&n| n == 0).count();
+    let doubled = seen.iter().filter(|&&n| n > 1).count();
+    assert!(
+        missing == 0 && doubled == 0,
+        "{name}: {missing} primitives in no leaf, {doubled} in several"
+    );
+}
+
+fn triangle_boxes(scene: &Scene) -> Vec<Bounds> {
+    (0..scene.mesh.len())
+        .map(|i| {
+            let mut b = Bounds::EMPTY;
+            for p in scene.mesh.corners(i) {
+                b.grow(p);
+            }
+            b
+        })
+        .collect()
+}
+
+#[test]
+fn every_primitive_sits_in_exactly_one_bounded_leaf() {
+    for rel in [
+        "sky/CBbunny.dae",
+        "meshedit/maxplanck.dae",
+        "keenan/banana.dae",
+        "basic/plane1024.dae",
+    ] {
+        let scene = scene_or_skip!(rel);
+        let boxes = triangle_boxes(&scene);
+        for (method, leaf) in [
+            (BuildMethod::Sah, 4),
+            (BuildMethod::Sah, 1),
+            (BuildMethod::Median, 8),
+        ] {
+            let bvh = Bvh::build(&boxes, leaf, method);
+            check_invariants(&format!("{rel} {method:?} leaf {leaf}"), &bvh, &boxes, leaf);
+        }
+    }
+}
+
+#[test]
+fn sah_costs_less_than_median_split_on_scanned_meshes() {
+    for rel in ["sky/CBbunny.dae", "meshedit/maxplanck.dae", "sky/bunny.dae"] {
+        let scene = scene_or_skip!(rel);
+        let boxes = triangle_boxes(&scene);
+        let sah = Bvh::build(&boxes, 4, BuildMethod::Sah).sah_cost();
+        let median = Bvh::build(&boxes, 4, BuildMethod::Median).sah_cost();
+        println!(
+            "{rel}: SAH cost {sah:.2}, median split {median:.2} ({:.0}% lower)",
+            100.0 * (1.0 - sah / median)
+        );
+        assert!(
+            sah < median,
+            "{rel}: SAH cost {sah:.2} is not below the median split's {median:.2}"
+        );
+    }
+}
+
+/// Compares two backends hit by hit: same hit/miss, `t` within `rel_t`,
+/// same primitive unless the other primitive is hit at the same distance
+/// (a tie on a shared edge).
+pub fn assert_agree(
+    name: &str,
+    a: &dyn Fn(&Ray) -> Option<Hit>,
+    b: &dyn Fn(&Ray) -> Option<Hit>,
+    rays: &[Ray],
+    rel_t: f32,
+    max_disagree: f64,
+) {
+    let mut hit_mismatch = 0;
+    let mut t_mismatch = 0;
+    // Different primitives at the same distance: ties on shared edges,
+    // which either answer may win.
+    let mut ties = 0;
+    let mut worst = String::new();
+    for ray in rays {
+        match (a(ray), b(ray)) {
+            (None, None) => {}
+            (Some(x), Some(y)) => {
+                if (x.t - y.t).abs() > rel_t * x.t.abs().max(1e-3) {
+                    t_mismatch += 1;
+                    worst = format!(
+                        "ray {ray:?}: t {} vs {} (primitives {} / {})",
+                        x.t, y.t, x.prim, y.prim
+                    );
+                } else if x.prim != y.prim {
+                    ties += 1;
+                }
+            }
+            (x, y) => {
+                hit_mismatch += 1;
+                worst = format!("ray {ray:?}: {x:?} vs {y:?}");
+            }
+        }
+    }
+    let rate = (hit_mismatch + t_mismatch) as f64 / rays.len() as f64;
+    println!(
+        "{name}: {} rays, {hit_mismatch} hit/miss and {t_mismatch} t disagreements, {ties} ties",
+        rays.len()
+    );
+    assert!(
+        rate <= max_disagree,
+        "{name}: {hit_mismatch} hit/miss and {t_mismatch} t disagreements in {} rays (allowed rate {max_disagree}); e.g. {worst}",
+        rays.len()
+    );
+}
+
+#[test]
+fn native_bvh_agrees_with_brute_force_on_random_rays() {
+    for rel in [
+        "sky/CBspheres_lambertian.dae",
+        "sky/CBbunny.dae",
+        "keenan/banana.dae",
+        "basic/sphere_diffuse.dae",
+    ] {
+        let scene = scene_or_skip!(rel);
+        let brute = BruteForce::build(&scene);
+        for mode in [TriangleMode::MollerTrumbore, TriangleMode::Watertight] {
+            let native = NativeBvh::build(
+                &scene,
+                &NativeOptions {
+                    triangle: mode,
+                    ..NativeOptions::default()
+                },
+            );
+            let rays = rays::random_rays(&scene, 10_000, 7);
+            let a = |r: &Ray| native.closest_hit(r, &mut TraceCounters::default());
+            let b = |r: &Ray| brute.closest_hit(r, &mut TraceCounters::default());
+            // t within 1e-5 relative; watertight and Möller–Trumbore may
+            // decide a few rays exactly on edges differently (<0.1%).
+            let allowed = if mode == TriangleMode::MollerTrumbore {
+                0.0
+            } else {
+                0.001
+            };
+            assert_agree(
+                &format!("{rel} native {mode:?} vs brute force"),
+                &a,
+                &b,
+                &rays,
+                1e-5,
+                allowed,
+            );
+            // Occlusion agrees with closest hit.
+            let mismatched = rays
+                .iter()
+                .filter(|r| {
+                    native.occluded(r, &mut TraceCounters::default())
+                        != native
+                            .closest_hit(r, &mut TraceCounters::default())
+                            .is_some()
+                })
+                .count();
+            assert_eq!(
+                mismatched, 0,
+                "{rel}: occluded() and closest_hit() disagree on {mismatched} rays"
+            );
+        }
+    }
+}
+
+#[test]
+fn the_default_scene_needs_no_shared_files() {
+    let scene = common::default_scene();
+    let native = NativeBvh::build(&scene, &NativeOptions::default());
+    let brute = BruteForce::build(&scene);
+    let rays = rays::random_rays(&scene, 5_000, 3);
+    let a = |r: &Ray| native.closest_hit(r, &mut TraceCounters::default());
+    let b = |r: &Ray| brute.closest_hit(r, &mut TraceCounters::default());
+    assert_agree(
+        "default scene native vs brute force",
+        &a,
+        &b,
+        &rays,
+        1e-5,
+        0.0,
+    );
+}
+
+#[test]
+fn untraceable_rays_are_misses_on_every_backend() {
+    let scene = common::default_scene();
+    let native = NativeBvh::build(&scene, &NativeOptions::default());
+    let brute = BruteForce::build(&scene);
+    let nan = f32::NAN;
+    let bad = [
+        Ray::new(glam::Vec3::new(nan, 0.0, 0.0), glam::Vec3::Z),
+        Ray::new(glam::Vec3::ZERO, glam::Vec3::new(0.0, f32::INFINITY, 0.0)),
+        Ray::new(glam::Vec3::new(0.0, 1.0, 3.0), glam::Vec3::ZERO),
+        Ray {
+            origin: glam::Vec3::new(0.0, 1.0, 3.0),
+            dir: -glam::Vec3::Z,
+            t_min: 1.0,
+            t_max: 0.5,
+        },
+    ];
+    for r in bad {
+        assert!(
+            native
+                .closest_hit(&r, &mut TraceCounters::default())
+                .is_none(),
+            "native hit {r:?}"
+        );
+        assert!(
+            brute
+                .closest_hit(&r, &mut TraceCounters::default())
+                .is_none(),
+            "brute hit {r:?}"
+        );
+        assert!(
+            !native.occluded(&r, &mut TraceCounters::default()),
+            "native occluded {r:?}"
+        );
+    }
+}

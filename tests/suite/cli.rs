@@ -1,0 +1,159 @@
+//! The program end to end: renders, the no-argument default, and bad input
+//! (exit code 2, one error line, no file under the output name).
+
+use std::path::Path;
+use std::process::{Command, Output};
+
+use crate::common;
+
+fn hybrid(args: &[&str], dir: &Path) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_hybrid"))
+        .args(args)
+        .current_dir(dir)
+        .output()
+        .expect("run hybrid")
+}
+
+fn text(o: &Output) -> String {
+    format!(
+        "stdout:\n{}\nstderr:\n{}",
+        String::from_utf8_lossy(&o.stdout),
+        String::from_utf8_lossy(&o.stderr)
+    )
+}
+
+#[test]
+fn renders_a_shared_scene_framed_like_the_course() {
+    let Some(scene) = common::shared("sky/CBspheres_lambertian.dae") else {
+        return;
+    };
+    let dir = common::scratch("cli-render");
+    let out = dir.join("spheres.png");
+    let o = hybrid(
+        &[
+            "render",
+            "--normals",
+            "-r",
+            "80",
+            "60",
+            "-f",
+            out.to_str().unwrap(),
+            scene.to_str().unwrap(),
+        ],
+        &dir,
+    );
+    assert!(o.status.success(), "{}", text(&o));
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    for part in ["14 primitives", "BVH built", "Mrays/s", "wrote"] {
+        assert!(stdout.contains(part), "output lacks '{part}': {stdout}");
+    }
+    let img = image::open(&out).expect("a readable PNG").to_rgb8();
+    assert_eq!(img.dimensions(), (80, 60));
+    // The box fills the middle; the margins (outside the open box) are black.
+    let centre = img.get_pixel(40, 30);
+    assert!(
+        centre.0.iter().any(|&c| c > 50),
+        "centre pixel is black: {centre:?}"
+    );
+    let corner = img.get_pixel(1, 1);
+    assert_eq!(corner.0, [0, 0, 0], "corner pixel is not background");
+    // Left wall at x ~ 0.25 W faces +x (normal colour red-heavy), right wall -x.
+    let (left, right) = (img.get_pixel(20, 30), img.get_pixel(60, 30));
+    assert!(
+        left.0[0] > right.0[0],
+        "left wall {left:?} should face +x, right wall {right:?} -x"
+    );
+}
+
+#[test]
+fn no_argument_renders_the_default_scene() {
+    let dir = common::scratch("cli-default");
+    let o = hybrid(&["render", "-r", "32", "24"], &dir);
+    assert!(o.status.success(), "{}", text(&o));
+    let img = image::open(dir.join("cornell.png"))
+        .expect("cornell.png written")
+        .to_rgb8();
+    assert_eq!(img.dimensions(), (32, 24));
+    let lit = img.pixels().filter(|p| p.0.iter().any(|&c| c > 20)).count();
+    assert!(
+        lit > 32 * 24 / 5,
+        "only {lit} lit pixels in the default render"
+    );
+}
+
+#[test]
+fn bad_input_exits_2_with_one_line_and_no_image() {
+    let dir = common::scratch("cli-bad");
+    let broken = dir.join("broken.dae");
+    std::fs::write(&broken, &hybrid::cli::DEFAULT_SCENE[..2000]).unwrap();
+    let cases: Vec<(Vec<&str>, &str)> = vec![
+        (
+            vec!["render", "-f", "out.png", "missing.dae"],
+            "missing.dae",
+        ),
+        (
+            vec!["render", "-f", "out.png", broken.to_str().unwrap()],
+            "malformed XML",
+        ),
+        (
+            vec!["render", "-f", "out.png", "-r", "0", "10"],
+            "resolution",
+        ),
+        (vec!["render", "-f", "out.png", "-s", "0"], "-s 0"),
+        (
+            vec!["render", "-f", "out.png", "-p", "0", "0", "900", "10"],
+            "cell",
+        ),
+        (vec!["render", "-f", "out.txt"], "unsupported output format"),
+        (vec!["render", "-f", "out.png", "--rr", "1.5"], "--rr"),
+    ];
+    for (args, expect) in cases {
+        let o = hybrid(&args, &dir);
+        assert_eq!(o.status.code(), Some(2), "{args:?}: {}", text(&o));
+        let stderr = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(
+            stderr.trim_end().lines().count(),
+            1,
+            "{args:?}: not one line: {stderr}"
+        );
+        assert!(
+            stderr.contains(expect),
+            "{args:?}: '{stderr}' lacks '{expect}'"
+        );
+        assert!(!stderr.contains("panicked"), "{args:?}: {stderr}");
+        assert!(
+            !dir.join("out.png").exists(),
+            "{args:?} left out.png behind"
+        );
+    }
+    // Nothing half-written either.
+    let leftovers: Vec<_> = std::fs::read_dir(&dir)
+        .unwrap()
+        .flatten()
+        .map(|e| e.file_name())
+        .filter(|n| n != "broken.dae")
+        .collect();
+    assert!(leftovers.is_empty(), "files left behind: {leftovers:?}");
+}
+
+#[test]
+fn same_seed_same_bytes_for_any_thread_count() {
+    let dir = common::scratch("cli-threads");
+    let mut images = Vec::new();
+    for t in ["1", "2"] {
+        let name = format!("t{t}.png");
+        let o = hybrid(
+            &[
+                "render", "-r", "40", "30", "-s", "8", "-m", "3", "--seed", "11", "-t", t, "-f",
+                &name,
+            ],
+            &dir,
+        );
+        assert!(o.status.success(), "{}", text(&o));
+        images.push(std::fs::read(dir.join(&name)).unwrap());
+    }
+    assert!(
+        images[0] == images[1],
+        "-t 1 and -t 2 wrote different bytes"
+    );
+}

@@ -1,0 +1,79 @@
+//! Helpers shared by the tests.
+
+use std::path::PathBuf;
+
+use hybrid::scene::{collada, NormalMode, Scene};
+
+/// The shared scenes folder, or `None` (with the reason printed) outside
+/// CI when it is missing. Under CI a missing folder is a failure.
+pub fn scenes_dir() -> Option<PathBuf> {
+    let dir = hybrid::cli::shared_scenes_dir();
+    if dir.is_dir() {
+        return Some(dir);
+    }
+    if std::env::var_os("CI").is_some() {
+        panic!(
+            "shared scenes not found at {} (set HYBRID_SCENES); CI must have them",
+            dir.display()
+        );
+    }
+    eprintln!(
+        "skipping: shared scenes not found at {} (set HYBRID_SCENES)",
+        dir.display()
+    );
+    None
+}
+
+pub fn shared(rel: &str) -> Option<PathBuf> {
+    let path = scenes_dir()?.join(rel);
+    assert!(path.is_file(), "shared scene {} is missing", path.display());
+    Some(path)
+}
+
+pub fn load(rel: &str) -> Option<Scene> {
+    let path = shared(rel)?;
+    Some(
+        collada::load(&path, NormalMode::Smooth)
+            .unwrap_or_else(|e| panic!("{rel} does not load: {e}")),
+    )
+}
+
+/// The project's default scene.
+pub fn default_scene() -> Scene {
+    collada::load_str(
+        hybrid::cli::DEFAULT_SCENE,
+        "dae/cornell.dae",
+        NormalMode::Smooth,
+    )
+    .expect("default scene loads")
+}
+
+/// Loads a shared scene or returns from the test (skip outside CI).
+macro_rules! scene_or_skip {
+    ($rel:expr) => {
+        match crate::common::load($rel) {
+            Some(s) => s,
+            None => return,
+        }
+    };
+}
+pub(crate) use scene_or_skip;
+
+/// Root-mean-square difference of two equally sized radiance buffers.
+pub fn rmse(a: &[glam::Vec3], b: &[glam::Vec3]) -> f64 {
+    assert_eq!(a.len(), b.len());
+    let sum: f64 = a
+        .iter()
+        .zip(b)
+        .map(|(x, y)| (*x - *y).length_squared() as f64 / 3.0)
+        .sum();
+    (sum / a.len() as f64).sqrt()
+}
+
+/// A scratch directory unique to one test.
+pub fn scratch(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("hybrid-test-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).expect("scratch dir");
+    dir
+}

@@ -1,0 +1,354 @@
+//! The integrators: unbiasedness (white furnace, hemisphere vs light
+//! sampling, Russian roulette), the bounce bookkeeping of -m/-o, adaptive
+//! sampling, and determinism across thread counts.
+
+use glam::Vec3;
+use hybrid::accel::native::{NativeBvh, NativeOptions};
+use hybrid::render::camera::CameraMode;
+use hybrid::render::film::{rate_colour, Film};
+use hybrid::render::integrator::{DirectEstimator, PathSettings, Shading};
+use hybrid::render::{render, Adaptive, RenderOutput, RenderSettings, Silent};
+use hybrid::scene::generate::white_furnace;
+use hybrid::scene::Scene;
+
+use crate::common::{self, scene_or_skip};
+
+fn path(estimator: DirectEstimator, max_bounces: u32) -> PathSettings {
+    PathSettings {
+        estimator,
+        light_samples: 1,
+        max_bounces,
+        ..PathSettings::default()
+    }
+}
+
+fn run(
+    scene: &Scene,
+    w: u32,
+    h: u32,
+    spp: u32,
+    seed: u64,
+    shading: Shading,
+    camera: CameraMode,
+) -> RenderOutput {
+    let accel = NativeBvh::build(scene, &NativeOptions::default());
+    let settings = RenderSettings {
+        width: w,
+        height: h,
+        samples: spp,
+        seed,
+        shading,
+        camera,
+        threads: 2,
+        ..RenderSettings::default()
+    };
+    render(scene, &accel, &settings, &Silent)
+}
+
+/// Mean and standard error of the red channel over pixels that share one
+/// expected value.
+fn mean_and_error(film: &Film) -> (f64, f64) {
+    let v: Vec<f64> = film.pixels.iter().map(|p| p.x as f64).collect();
+    let n = v.len() as f64;
+    let mean = v.iter().sum::<f64>() / n;
+    let var = v.iter().map(|x| (x - mean) * (x - mean)).sum::<f64>() / (n - 1.0);
+    (mean, (var / n).sqrt())
+}
+
+#[test]
+fn white_furnace_matches_its_analytic_radiance() {
+    let (albedo, emission) = (0.5f64, 1.0f64);
+    let scene = white_furnace(albedo as f32, emission as f32);
+    for estimator in [DirectEstimator::Hemisphere, DirectEstimator::LightSampling] {
+        for m in 0..=4u32 {
+            let expected: f64 = (0..=m).map(|k| emission * albedo.powi(k as i32)).sum();
+            let out = run(
+                &scene,
+                24,
+                18,
+                16,
+                1,
+                Shading::Path(path(estimator, m)),
+                CameraMode::Node,
+            );
+            let (mean, se) = mean_and_error(&out.film);
+            println!("furnace {estimator:?} M={m}: {mean:.5} ± {se:.5}, analytic {expected:.5}");
+            assert!(
+                (mean - expected).abs() <= 4.0 * se + 1e-4,
+                "{estimator:?} M={m}: mean {mean:.5} ± {se:.5} is not the analytic {expected:.5}"
+            );
+        }
+    }
+}
+
+#[test]
+fn russian_roulette_keeps_the_mean_and_changes_the_variance() {
+    let scene = white_furnace(0.6, 1.0);
+    let plain = path(DirectEstimator::LightSampling, 6);
+    let rr = PathSettings {
+        russian_roulette: Some(0.5),
+        ..plain
+    };
+    let a = run(
+        &scene,
+        24,
+        18,
+        16,
+        3,
+        Shading::Path(plain),
+        CameraMode::Node,
+    );
+    let b = run(&scene, 24, 18, 16, 3, Shading::Path(rr), CameraMode::Node);
+    let ((ma, sa), (mb, sb)) = (mean_and_error(&a.film), mean_and_error(&b.film));
+    println!(
+        "without RR {ma:.4} ± {sa:.4}, with RR 0.5 {mb:.4} ± {sb:.4}; rays {} vs {}",
+        a.counters.rays, b.counters.rays
+    );
+    assert!(
+        (ma - mb).abs() <= 4.0 * (sa * sa + sb * sb).sqrt(),
+        "RR moved the mean: {ma:.4} vs {mb:.4}"
+    );
+    assert!(
+        sb > sa,
+        "RR did not change the variance: SE {sb:.5} vs {sa:.5}"
+    );
+    assert!(
+        b.counters.rays < a.counters.rays,
+        "RR did not shorten paths"
+    );
+}
+
+#[test]
+fn russian_roulette_terminates_unbounded_paths() {
+    let scene = white_furnace(0.9, 1.0);
+    let settings = PathSettings {
+        russian_roulette: Some(0.7),
+        ..path(DirectEstimator::LightSampling, 100)
+    };
+    let out = run(
+        &scene,
+        8,
+        6,
+        4,
+        1,
+        Shading::Path(settings),
+        CameraMode::Node,
+    );
+    let rays_per_sample = out.counters.rays as f64 / (8.0 * 6.0 * 4.0);
+    assert!(
+        rays_per_sample < 100.0,
+        "paths did not terminate: {rays_per_sample:.1} rays per camera sample"
+    );
+}
+
+#[test]
+fn hemisphere_and_light_sampling_converge_to_the_same_image() {
+    let scene = scene_or_skip!("sky/CBspheres_lambertian.dae");
+    // Region means over a 4 x 3 grid, over several seeds, for both estimators.
+    let (w, h, seeds) = (32u32, 24u32, 24u64);
+    let regions = |film: &Film| -> Vec<f64> {
+        let mut out = vec![0.0; 12];
+        for y in 0..h {
+            for x in 0..w {
+                let r = (y * 3 / h) * 4 + x * 4 / w;
+                let p = film.pixels[(y * w + x) as usize];
+                out[r as usize] += (p.x + p.y + p.z) as f64 / 3.0;
+            }
+        }
+        out
+    };
+    let mut stats = Vec::new();
+    for estimator in [DirectEstimator::Hemisphere, DirectEstimator::LightSampling] {
+        let per_seed: Vec<Vec<f64>> = (0..seeds)
+            .map(|s| {
+                regions(
+                    &run(
+                        &scene,
+                        w,
+                        h,
+                        16,
+                        100 + s,
+                        Shading::Path(PathSettings {
+                            light_samples: 4,
+                            ..path(estimator, 2)
+                        }),
+                        CameraMode::Canonical,
+                    )
+                    .film,
+                )
+            })
+            .collect();
+        let mean: Vec<f64> = (0..12)
+            .map(|r| per_seed.iter().map(|v| v[r]).sum::<f64>() / seeds as f64)
+            .collect();
+        let se: Vec<f64> = (0..12)
+            .map(|r| {
+                (per_seed
+                    .iter()
+                    .map(|v| (v[r] - mean[r]).powi(2))
+                    .sum::<f64>()
+                    / (seeds as f64 - 1.0)
+                    / seeds as f64)
+                    .sqrt()
+            })
+            .collect();
+        stats.push((mean, se));
+    }
+    let (hemi, light) = (&stats[0], &stats[1]);
+    for r in 0..12 {
+        let diff = (hemi.0[r] - light.0[r]).abs();
+        let se = (hemi.1[r].powi(2) + light.1[r].powi(2)).sqrt();
+        println!(
+            "region {r}: hemisphere {:.3} ± {:.3}, light {:.3} ± {:.3}",
+            hemi.0[r], hemi.1[r], light.0[r], light.1[r]
+        );
+        assert!(
+            diff <= 4.0 * se + 1e-3 * light.0[r],
+            "region {r}: hemisphere {:.3} vs light {:.3} (± {se:.3})",
+            hemi.0[r],
+            light.0[r]
+        );
+    }
+}
+
+#[test]
+fn bounce_images_sum_to_the_accumulated_image() {
+    let scene = scene_or_skip!("sky/CBspheres_lambertian.dae");
+    let (w, h) = (24u32, 18u32);
+    let base = PathSettings {
+        light_samples: 2,
+        ..path(DirectEstimator::LightSampling, 5)
+    };
+    let accumulated = run(
+        &scene,
+        w,
+        h,
+        4,
+        9,
+        Shading::Path(base),
+        CameraMode::Canonical,
+    )
+    .film;
+    let mut sum = vec![Vec3::ZERO; (w * h) as usize];
+    for m in 0..=5 {
+        let only = PathSettings {
+            max_bounces: m,
+            accumulate: false,
+            ..base
+        };
+        let film = run(
+            &scene,
+            w,
+            h,
+            4,
+            9,
+            Shading::Path(only),
+            CameraMode::Canonical,
+        )
+        .film;
+        let mean: f32 = film.pixels.iter().map(|p| p.x).sum::<f32>() / film.pixels.len() as f32;
+        println!("bounce {m}: mean red {mean:.4}");
+        for (s, p) in sum.iter_mut().zip(&film.pixels) {
+            *s += *p;
+        }
+    }
+    let worst = sum
+        .iter()
+        .zip(&accumulated.pixels)
+        .map(|(a, b)| (*a - *b).abs().max_element() / (1.0 + b.max_element()))
+        .fold(0.0f32, f32::max);
+    assert!(
+        worst < 1e-4,
+        "per-bounce images do not sum to the accumulated one: worst relative difference {worst}"
+    );
+    assert!(
+        common::rmse(&sum, &vec![Vec3::ZERO; sum.len()]) > 0.01,
+        "the images are black"
+    );
+}
+
+#[test]
+fn adaptive_sampling_stops_early_on_flat_background() {
+    let scene = scene_or_skip!("sky/CBspheres_lambertian.dae");
+    let (w, h, cap, batch) = (40u32, 30u32, 256u32, 16u32);
+    let accel = NativeBvh::build(&scene, &NativeOptions::default());
+    let settings = RenderSettings {
+        width: w,
+        height: h,
+        samples: cap,
+        seed: 5,
+        threads: 2,
+        shading: Shading::Path(PathSettings {
+            light_samples: 1,
+            ..path(DirectEstimator::LightSampling, 2)
+        }),
+        adaptive: Some(Adaptive {
+            batch,
+            tolerance: 0.05,
+        }),
+        ..RenderSettings::default()
+    };
+    let out = render(&scene, &accel, &settings, &Silent);
+    let film = &out.film;
+    // The margins outside the open box are background.
+    let background: Vec<u32> = (0..h)
+        .flat_map(|y| [0, 1].map(|x| film.samples[(y * w + x) as usize]))
+        .collect();
+    assert!(
+        background.iter().all(|&n| n == batch),
+        "background pixels took {background:?} samples, not one batch of {batch}"
+    );
+    let mut inside: Vec<u32> = (h / 4..3 * h / 4)
+        .flat_map(|y| (w / 4..3 * w / 4).map(move |x| (y * w + x) as usize))
+        .map(|i| film.samples[i])
+        .collect();
+    inside.sort();
+    let median = inside[inside.len() / 2];
+    println!(
+        "adaptive: background {batch} samples, box interior median {median}, mean {:.1}",
+        out.mean_samples()
+    );
+    assert!(
+        median > 2 * batch,
+        "box interior median {median} samples: noisy pixels should take more than two batches"
+    );
+
+    let dir = common::scratch("adaptive-rate");
+    let path = dir.join("rate.png");
+    film.write_rate(&path, cap).unwrap();
+    let img = image::open(&path).unwrap().to_rgb8();
+    assert_eq!(img.dimensions(), (w, h));
+    assert_eq!(
+        img.get_pixel(0, 0).0,
+        rate_colour(batch as f32 / cap as f32),
+        "background rate colour"
+    );
+    let most = inside.last().copied().unwrap();
+    assert!(
+        rate_colour(most as f32 / cap as f32)[0] > rate_colour(batch as f32 / cap as f32)[0],
+        "busier pixels are redder"
+    );
+}
+
+#[test]
+fn same_seed_gives_the_same_image_for_any_thread_count() {
+    let scene = common::default_scene();
+    let accel = NativeBvh::build(&scene, &NativeOptions::default());
+    let mut films = Vec::new();
+    for threads in [1, 2, 3] {
+        let settings = RenderSettings {
+            width: 24,
+            height: 18,
+            samples: 4,
+            seed: 42,
+            threads,
+            shading: Shading::Path(path(DirectEstimator::LightSampling, 4)),
+            ..RenderSettings::default()
+        };
+        films.push(render(&scene, &accel, &settings, &Silent).film.pixels);
+    }
+    assert!(
+        films[0] == films[1] && films[1] == films[2],
+        "thread count changed the image"
+    );
+}

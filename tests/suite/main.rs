@@ -1,0 +1,11 @@
+//! hybrid's test suite, in one binary so the release build links once.
+//! Tests that need `../shared/scenes` (or `HYBRID_SCENES`) fail loudly under
+//! CI when it is missing and skip with a printed reason elsewhere.
+
+mod common;
+
+mod bvh;
+mod cli;
+
+mod integrators;
+mod loader;
