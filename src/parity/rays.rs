@@ -28,11 +28,12 @@ pub fn camera_rays(scene: &Scene, n: usize, seed: u64) -> Vec<Ray> {
         .collect()
 }
 
-/// Rays from random points inside the scene's bounds (grown by 10%) in
-/// uniformly random directions.
+/// Rays from random points inside the scene's bounds (grown by 10% of the
+/// largest extent on every side, so flat scenes get a volume) in uniformly
+/// random directions.
 pub fn random_rays(scene: &Scene, n: usize, seed: u64) -> Vec<Ray> {
     let b = scene.bounds();
-    let pad = b.extent() * 0.1;
+    let pad = Vec3::splat(b.extent().max_element() * 0.1);
     let (lo, size) = (b.min - pad, b.extent() + 2.0 * pad);
     let mut rng = Rng::new(seed, 2);
     (0..n)

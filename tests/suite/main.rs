@@ -6,6 +6,7 @@ mod common;
 
 mod bvh;
 mod cli;
+mod embree_backend;
 
 mod integrators;
 mod loader;

@@ -1,0 +1,178 @@
+//! The Embree backend behind the same trait: hit-level agreement with the
+//! native BVH, the same images, and Embree's errors as Rust errors.
+
+use hybrid::accel::embree::{invalid_buffer_error, BuildQuality, EmbreeAccel, EmbreeOptions};
+use hybrid::accel::native::{NativeBvh, NativeOptions};
+use hybrid::accel::{Accel, AccelError, Ray, TraceCounters};
+use hybrid::parity::rays;
+use hybrid::render::integrator::{PathSettings, Shading};
+use hybrid::render::{render, RenderSettings, Silent};
+
+use crate::bvh::assert_agree;
+use crate::common::{self, scene_or_skip};
+
+const SCENES: &[&str] = &[
+    "basic/plane1024.dae",
+    "basic/plane64.dae",
+    "basic/sphere_diffuse.dae",
+    "basic/trigs5.dae",
+    "keenan/banana.dae",
+    "meshedit/cow.dae",
+    "meshedit/maxplanck.dae",
+    "meshedit/teapot.dae",
+    "sky/CBbunny.dae",
+    "sky/CBempty.dae",
+    "sky/CBspheres.dae",
+    "sky/CBspheres_lambertian.dae",
+    "sky/bunny.dae",
+];
+
+#[test]
+fn embree_agrees_with_native_on_random_rays_in_every_shared_scene() {
+    for rel in SCENES {
+        let scene = scene_or_skip!(rel);
+        let native = NativeBvh::build(&scene, &NativeOptions::default());
+        for quality in [BuildQuality::Low, BuildQuality::High] {
+            let embree = EmbreeAccel::build(
+                &scene,
+                &EmbreeOptions {
+                    quality,
+                    ..EmbreeOptions::default()
+                },
+            )
+            .expect("embree builds");
+            let rays = rays::random_rays(&scene, 10_000, 21);
+            let a = |r: &Ray| native.closest_hit(r, &mut TraceCounters::default());
+            let b = |r: &Ray| embree.closest_hit(r, &mut TraceCounters::default());
+            assert_agree(
+                &format!("{rel}: native vs embree ({quality:?})"),
+                &a,
+                &b,
+                &rays,
+                1e-4,
+                0.0005,
+            );
+            // Normals agree where the same primitive was hit.
+            let mut worst = 0.0f32;
+            for r in &rays {
+                if let (Some(x), Some(y)) = (a(r), b(r)) {
+                    if x.prim == y.prim {
+                        worst = worst.max(x.normal.angle_between(y.normal).to_degrees());
+                    }
+                }
+            }
+            println!("{rel}: worst geometric-normal angle {worst:.4} degrees");
+            assert!(
+                worst < 0.1,
+                "{rel}: geometric normals differ by up to {worst} degrees"
+            );
+            let occluded = rays
+                .iter()
+                .filter(|r| embree.occluded(r, &mut TraceCounters::default()) != b(r).is_some())
+                .count();
+            assert_eq!(
+                occluded, 0,
+                "{rel}: embree occluded() and closest_hit() disagree on {occluded} rays"
+            );
+        }
+    }
+}
+
+fn same_image(rel: &str, shading: Shading, spp: u32, max_rmse: f64) {
+    let scene = scene_or_skip!(rel);
+    let native = NativeBvh::build(&scene, &NativeOptions::default());
+    let embree = EmbreeAccel::build(&scene, &EmbreeOptions::default()).expect("embree builds");
+    let settings = RenderSettings {
+        width: 64,
+        height: 48,
+        samples: spp,
+        seed: 3,
+        threads: 2,
+        shading,
+        ..RenderSettings::default()
+    };
+    let a = render(&scene, &native, &settings, &Silent).film;
+    let b = render(&scene, &embree, &settings, &Silent).film;
+    let rmse = common::rmse(&a.pixels, &b.pixels);
+    let same_byte = a
+        .to_rgb8(hybrid::render::film::ToneMap::Reference)
+        .iter()
+        .zip(b.to_rgb8(hybrid::render::film::ToneMap::Reference))
+        .filter(|(x, y)| (**x as i32 - *y as i32).abs() <= 1)
+        .count() as f64
+        / (a.pixels.len() * 3) as f64;
+    println!(
+        "{rel} {shading:?}: RMSE {rmse:.5}, {:.2}% of channels within 1/255",
+        same_byte * 100.0
+    );
+    assert!(
+        rmse <= max_rmse,
+        "{rel}: native and embree images differ by RMSE {rmse:.5} > {max_rmse}"
+    );
+    assert!(
+        same_byte >= 0.99,
+        "{rel}: only {:.2}% of channels within 1/255",
+        same_byte * 100.0
+    );
+}
+
+#[test]
+fn native_and_embree_render_the_same_normal_images() {
+    same_image("sky/CBspheres_lambertian.dae", Shading::Normals, 4, 0.01);
+    same_image("sky/CBbunny.dae", Shading::Normals, 4, 0.01);
+}
+
+#[test]
+fn native_and_embree_render_the_same_path_traced_images() {
+    let pt = Shading::Path(PathSettings {
+        max_bounces: 3,
+        light_samples: 2,
+        ..PathSettings::default()
+    });
+    same_image("sky/CBspheres_lambertian.dae", pt, 8, 0.02);
+    same_image("sky/CBbunny.dae", pt, 8, 0.02);
+}
+
+#[test]
+fn embree_errors_come_back_as_rust_errors_with_embrees_message() {
+    match invalid_buffer_error() {
+        Err(AccelError::Embree(message)) => {
+            println!("embree said: {message}");
+            assert!(
+                message.contains("invalid argument") || message.contains("aligned"),
+                "unexpected message: {message}"
+            );
+        }
+        Ok(()) => panic!("a misaligned buffer was accepted"),
+    }
+}
+
+#[test]
+fn backends_can_be_dropped_in_any_order() {
+    let scene = common::default_scene();
+    let a = EmbreeAccel::build(
+        &scene,
+        &EmbreeOptions {
+            robust: true,
+            ..EmbreeOptions::default()
+        },
+    )
+    .unwrap();
+    let b = EmbreeAccel::build(
+        &scene,
+        &EmbreeOptions {
+            quality: BuildQuality::High,
+            threads: 1,
+            ..EmbreeOptions::default()
+        },
+    )
+    .unwrap();
+    let ray = hybrid::parity::rays::camera_rays(&scene, 1, 0)[0];
+    assert!(a.closest_hit(&ray, &mut TraceCounters::default()).is_some());
+    drop(a);
+    assert!(
+        b.closest_hit(&ray, &mut TraceCounters::default()).is_some(),
+        "dropping one scene broke another"
+    );
+    drop(b);
+}
