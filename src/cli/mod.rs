@@ -13,6 +13,7 @@ macro_rules! say {
     }};
 }
 
+mod parity;
 mod render;
 
 use std::path::{Path, PathBuf};
@@ -41,6 +42,8 @@ pub struct Cli {
 pub enum Command {
     /// Render a scene to an image.
     Render(render::RenderArgs),
+    /// Compare every backend on the same rays (`--hard`: numerical hard cases).
+    Parity(parity::ParityArgs),
 }
 
 /// Runs the program; returns the exit code.
@@ -54,10 +57,12 @@ pub fn main() -> i32 {
         }
     };
     let outcome = match cli.command {
-        Command::Render(args) => render::run(&args),
+        Command::Render(args) => render::run(&args).map(|()| true),
+        Command::Parity(args) => parity::run(&args),
     };
     match outcome {
-        Ok(()) => 0,
+        Ok(true) => 0,
+        Ok(false) => 1,
         Err(message) => {
             eprintln!("hybrid: error: {message}");
             2

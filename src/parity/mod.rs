@@ -1,4 +1,328 @@
 //! The parity suite: the same rays through every backend, compared hit by
-//! hit ([`rays`] makes the ray sets).
+//! hit against the native watertight BVH (the accuracy reference).
+//!
+//! - [`rays`]: the ray sets (camera, random, bounce, shadow, grazing);
+//! - [`hard`]: generated hard cases, measured per backend and mode.
+//!
+//! Tolerances and thresholds are stated here once, and in `docs/parity.md`.
 
+pub mod hard;
 pub mod rays;
+
+use glam::Vec3;
+
+use crate::accel::embree::EmbreeOptions;
+use crate::accel::native::triangle::TriangleMode;
+use crate::accel::native::NativeOptions;
+use crate::accel::{Accel, AccelError, AccelKind, AccelOptions, Backend, Hit, Ray, TraceCounters};
+use crate::scene::Scene;
+
+/// Hits agree in distance when `|t_a - t_b| <= T_RELATIVE * max(t_a, 0.01
+/// * scene size)`: rounding error scales with the coordinates, not with t,
+/// so very short hits are judged on the scene's scale.
+pub const T_RELATIVE: f32 = 1e-4;
+/// Grazing rays (within 0.5 degrees of the surface) amplify a position
+/// error e normal to the surface into a t error e / sin(angle) (up to
+/// ~100x at 0.5 degrees), so their t tolerance is 100x looser.
+pub const T_RELATIVE_GRAZING: f32 = 1e-2;
+/// Normals agree within this angle (degrees).
+pub const NORMAL_DEGREES: f32 = 0.1;
+/// Minimum share of rays with the same hit/miss answer.
+pub const MIN_HIT_AGREEMENT: f64 = 0.999;
+/// Minimum share of common hits with agreeing `t`, and with the same
+/// primitive or a tie (another primitive at the same `t`).
+pub const MIN_T_AGREEMENT: f64 = 0.999;
+pub const MIN_PRIMITIVE_AGREEMENT: f64 = 0.999;
+/// Minimum share of same-primitive hits whose normals agree.
+pub const MIN_NORMAL_AGREEMENT: f64 = 0.999;
+/// Grazing rays skim surfaces by design; they get a looser bound.
+pub const MIN_GRAZING_AGREEMENT: f64 = 0.99;
+/// Brute force joins the comparison up to this many primitives.
+pub const BRUTE_FORCE_LIMIT: usize = 5_000;
+
+/// One backend configuration under test.
+pub struct Candidate<'s> {
+    pub name: String,
+    pub accel: Backend<'s>,
+}
+
+/// The reference and the candidates for `scene`: native watertight as the
+/// reference; native Möller–Trumbore, Embree (default and robust) and, on
+/// small scenes, brute force as candidates.
+pub fn candidates(scene: &Scene) -> Result<(Candidate<'_>, Vec<Candidate<'_>>), AccelError> {
+    let with = |kind: AccelKind, native: NativeOptions, embree: EmbreeOptions| {
+        Backend::build(kind, scene, &AccelOptions { native, embree })
+    };
+    let nat = |triangle| NativeOptions {
+        triangle,
+        ..NativeOptions::default()
+    };
+    let reference = Candidate {
+        name: "native watertight".into(),
+        accel: with(
+            AccelKind::Native,
+            nat(TriangleMode::Watertight),
+            EmbreeOptions::default(),
+        )?,
+    };
+    let mut list = vec![
+        Candidate {
+            name: "native möller-trumbore".into(),
+            accel: with(
+                AccelKind::Native,
+                nat(TriangleMode::MollerTrumbore),
+                EmbreeOptions::default(),
+            )?,
+        },
+        Candidate {
+            name: "embree".into(),
+            accel: with(
+                AccelKind::Embree,
+                NativeOptions::default(),
+                EmbreeOptions::default(),
+            )?,
+        },
+        Candidate {
+            name: "embree robust".into(),
+            accel: with(
+                AccelKind::Embree,
+                NativeOptions::default(),
+                EmbreeOptions {
+                    robust: true,
+                    ..EmbreeOptions::default()
+                },
+            )?,
+        },
+    ];
+    if scene.primitive_count() <= BRUTE_FORCE_LIMIT {
+        list.push(Candidate {
+            name: "none (brute force)".into(),
+            accel: with(
+                AccelKind::None,
+                NativeOptions::default(),
+                EmbreeOptions::default(),
+            )?,
+        });
+    }
+    Ok((reference, list))
+}
+
+/// Agreement of one candidate with the reference on one ray set.
+#[derive(Clone, Debug, Default)]
+pub struct Agreement {
+    pub backend: String,
+    pub rays: usize,
+    pub same_hit_or_miss: usize,
+    pub both_hit: usize,
+    pub t_agree: usize,
+    /// Same primitive, or a different one at an agreeing `t` (a tie).
+    pub primitive_agree: usize,
+    pub ties: usize,
+    pub same_primitive: usize,
+    pub normal_agree: usize,
+    pub worst_geometric_degrees: f32,
+    pub worst_shading_degrees: f32,
+    /// The worst disagreement seen, for the reader.
+    pub worst_case: String,
+}
+
+fn share(n: usize, of: usize) -> f64 {
+    if of == 0 {
+        1.0
+    } else {
+        n as f64 / of as f64
+    }
+}
+
+impl Agreement {
+    pub fn hit_rate(&self) -> f64 {
+        share(self.same_hit_or_miss, self.rays)
+    }
+    pub fn t_rate(&self) -> f64 {
+        share(self.t_agree, self.both_hit)
+    }
+    pub fn primitive_rate(&self) -> f64 {
+        share(self.primitive_agree, self.both_hit)
+    }
+    pub fn normal_rate(&self) -> f64 {
+        share(self.normal_agree, self.same_primitive)
+    }
+
+    /// Whether the thresholds hold (`min` for hit/miss, t and primitive).
+    pub fn passes(&self, min: f64) -> bool {
+        self.hit_rate() >= min
+            && self.t_rate() >= min
+            && self.primitive_rate() >= min
+            && self.normal_rate() >= MIN_NORMAL_AGREEMENT
+    }
+}
+
+/// Angle between unit vectors; atan2 of the cross and dot products keeps
+/// precision near zero, where `acos` of a dot product cannot resolve less
+/// than ~0.03 degrees in f32.
+fn angle_degrees(a: Vec3, b: Vec3) -> f32 {
+    a.cross(b).length().atan2(a.dot(b)).to_degrees()
+}
+
+/// Compares `candidate` with `reference` on `rays`.
+pub fn compare(
+    scene: &Scene,
+    reference: &Candidate,
+    candidate: &Candidate,
+    rays: &[Ray],
+    t_relative: f32,
+) -> Agreement {
+    let mut a = Agreement {
+        backend: candidate.name.clone(),
+        rays: rays.len(),
+        ..Agreement::default()
+    };
+    let t_floor = 0.01 * scene.bounds().extent().max_element();
+    let mut worst_dt = 0.0f32;
+    let trace = |accel: &Backend, r: &Ray| accel.closest_hit(r, &mut TraceCounters::default());
+    for ray in rays {
+        let (x, y): (Option<Hit>, Option<Hit>) =
+            (trace(&reference.accel, ray), trace(&candidate.accel, ray));
+        match (x, y) {
+            (None, None) => a.same_hit_or_miss += 1,
+            (Some(x), Some(y)) => {
+                a.same_hit_or_miss += 1;
+                a.both_hit += 1;
+                let dt = (x.t - y.t).abs() / x.t.abs().max(t_floor);
+                let t_ok = dt <= t_relative;
+                if t_ok {
+                    a.t_agree += 1;
+                } else if dt > worst_dt {
+                    worst_dt = dt;
+                    a.worst_case = format!(
+                        "t {} vs {} (primitives {} / {}) for {:?}",
+                        x.t, y.t, x.prim, y.prim, ray
+                    );
+                }
+                if x.prim == y.prim {
+                    a.primitive_agree += 1;
+                    a.same_primitive += 1;
+                    let ng = angle_degrees(x.normal, y.normal);
+                    let sx = scene
+                        .surface_point(x.prim, ray.at(x.t), x.u, x.v)
+                        .shading_normal;
+                    let sy = scene
+                        .surface_point(y.prim, ray.at(y.t), y.u, y.v)
+                        .shading_normal;
+                    let ns = angle_degrees(sx, sy);
+                    a.worst_geometric_degrees = a.worst_geometric_degrees.max(ng);
+                    a.worst_shading_degrees = a.worst_shading_degrees.max(ns);
+                    if ng <= NORMAL_DEGREES && ns <= NORMAL_DEGREES {
+                        a.normal_agree += 1;
+                    }
+                } else if t_ok {
+                    a.primitive_agree += 1;
+                    a.ties += 1;
+                }
+            }
+            (x, y) => {
+                if worst_dt < f32::INFINITY {
+                    worst_dt = f32::INFINITY;
+                    a.worst_case = format!("{} vs {} for {:?}", describe(x), describe(y), ray);
+                }
+            }
+        }
+    }
+    a
+}
+
+fn describe(h: Option<Hit>) -> String {
+    match h {
+        Some(h) => format!("hit t={} primitive {}", h.t, h.prim),
+        None => "miss".into(),
+    }
+}
+
+/// One table of the parity report: a ray kind and every candidate's row.
+pub struct RayKindTable {
+    pub kind: &'static str,
+    pub minimum: f64,
+    pub t_relative: f32,
+    pub rows: Vec<Agreement>,
+}
+
+/// Runs every ray kind through every candidate.
+pub fn run_scene(scene: &Scene, n: usize, seed: u64) -> Result<Vec<RayKindTable>, AccelError> {
+    let (reference, list) = candidates(scene)?;
+    let sets: Vec<(&'static str, f64, f32, Vec<Ray>)> = vec![
+        (
+            "camera",
+            MIN_HIT_AGREEMENT,
+            T_RELATIVE,
+            rays::camera_rays(scene, n, seed),
+        ),
+        (
+            "random",
+            MIN_HIT_AGREEMENT,
+            T_RELATIVE,
+            rays::random_rays(scene, n, seed),
+        ),
+        (
+            "bounce",
+            MIN_HIT_AGREEMENT,
+            T_RELATIVE,
+            rays::bounce_rays(scene, &reference.accel, n, seed),
+        ),
+        (
+            "shadow",
+            MIN_HIT_AGREEMENT,
+            T_RELATIVE,
+            rays::shadow_rays(scene, &reference.accel, n, seed),
+        ),
+        (
+            "grazing",
+            MIN_GRAZING_AGREEMENT,
+            T_RELATIVE_GRAZING,
+            rays::grazing_rays(scene, &reference.accel, n, seed),
+        ),
+    ];
+    Ok(sets
+        .into_iter()
+        .map(|(kind, minimum, t_relative, rays)| RayKindTable {
+            kind,
+            minimum,
+            t_relative,
+            rows: list
+                .iter()
+                .map(|c| compare(scene, &reference, c, &rays, t_relative))
+                .collect(),
+        })
+        .collect())
+}
+
+/// The tables as Markdown.
+pub fn format_tables(tables: &[RayKindTable]) -> String {
+    let mut out = String::new();
+    for t in tables {
+        out += &format!(
+            "\n{} rays (reference: native watertight; t within {:.0e} relative; pass: >= {:.1}% agreement)\n\n| backend | rays | hit/miss agree | t agree | same primitive (ties) | geometric normal max | shading normal max | pass |\n|---|---|---|---|---|---|---|---|\n",
+            t.kind,
+            t.t_relative,
+            t.minimum * 100.0
+        );
+        for r in &t.rows {
+            out += &format!(
+                "| {} | {} | {:.3}% | {:.3}% | {:.3}% ({}) | {:.4}° | {:.4}° | {} |\n",
+                r.backend,
+                r.rays,
+                r.hit_rate() * 100.0,
+                r.t_rate() * 100.0,
+                r.primitive_rate() * 100.0,
+                r.ties,
+                r.worst_geometric_degrees,
+                r.worst_shading_degrees,
+                if r.passes(t.minimum) { "yes" } else { "NO" }
+            );
+        }
+        for r in t.rows.iter().filter(|r| !r.worst_case.is_empty()) {
+            out += &format!("\n- worst {}: {}", r.backend, r.worst_case);
+        }
+        out += "\n";
+    }
+    out
+}

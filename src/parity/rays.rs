@@ -101,7 +101,9 @@ pub fn shadow_rays<A: Accel>(scene: &Scene, reference: &A, n: usize, seed: u64) 
         .filter_map(|(p, ng)| {
             let light = &scene.lights[(rng.next_u32() as usize) % scene.lights.len()];
             let ls = sample_li(light, p, ng, &mut rng)?;
-            Some(spawn_ray(p, ng, ls.wi, ls.distance * (1.0 - 1e-4)))
+            // Only lights above the surface get a shadow ray, as in the
+            // integrator.
+            (ls.wi.dot(ng) > 0.0).then(|| spawn_ray(p, ng, ls.wi, ls.distance * (1.0 - 1e-4)))
         })
         .collect()
 }

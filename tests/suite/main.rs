@@ -10,3 +10,4 @@ mod embree_backend;
 
 mod integrators;
 mod loader;
+mod parity;

@@ -1,0 +1,74 @@
+//! `hybrid parity`: the same rays through every backend, tables per ray
+//! kind, and (`--hard`) the hard-case table. Exits 1 when agreement falls
+//! below the thresholds of `docs/parity.md`.
+
+use std::path::PathBuf;
+
+use clap::Args;
+
+use crate::parity::{format_tables, hard, run_scene};
+use crate::scene::NormalMode;
+
+#[derive(Args, Debug, Clone)]
+pub struct ParityArgs {
+    /// Scene file (.dae); the project's default scene when omitted.
+    pub scene: Option<PathBuf>,
+    /// Rays per ray kind.
+    #[arg(long, default_value_t = 10_000)]
+    pub rays: usize,
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Run the hard numerical cases (the scene, if given, joins them as the
+    /// scanned mesh) instead of the scene comparison.
+    #[arg(long)]
+    pub hard: bool,
+}
+
+/// Ok(true) when every threshold holds.
+pub fn run(args: &ParityArgs) -> Result<bool, String> {
+    if args.rays == 0 {
+        return Err("--rays 0: at least one ray per kind is needed".into());
+    }
+    let scene = super::load_scene(args.scene.as_deref(), NormalMode::Smooth)?;
+    if args.hard {
+        let scanned = args.scene.as_ref().map(|_| &scene);
+        let cases = hard::cases(args.rays, args.seed, scanned);
+        let reports = hard::run_all(&cases).map_err(|e| e.to_string())?;
+        say!(
+            "hard cases, {} rays each (failures / rays per backend and mode)\n",
+            args.rays
+        );
+        say!("{}", hard::format_table(&reports));
+        let broken: Vec<String> = reports
+            .iter()
+            .flat_map(|r| {
+                r.outcomes.iter().filter_map(move |(mode, o)| {
+                    let promise_broken = r.watertight_promise
+                        && *mode == hard::Mode::NativeWatertight
+                        && o.failures > 0;
+                    (o.nans > 0 || o.panics > 0 || promise_broken)
+                        .then(|| format!("{} on {}", mode.name(), r.name))
+                })
+            })
+            .collect();
+        if !broken.is_empty() {
+            say!("FAILED: {}", broken.join("; "));
+        }
+        return Ok(broken.is_empty());
+    }
+    say!("{}", scene.summary());
+    let tables = run_scene(&scene, args.rays, args.seed).map_err(|e| e.to_string())?;
+    say!("{}", format_tables(&tables));
+    let pass = tables
+        .iter()
+        .all(|t| t.rows.iter().all(|r| r.passes(t.minimum)));
+    say!(
+        "{}",
+        if pass {
+            "parity: every backend within the thresholds"
+        } else {
+            "parity: FAILED thresholds"
+        }
+    );
+    Ok(pass)
+}

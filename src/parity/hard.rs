@@ -1,0 +1,752 @@
+//! Hard numerical cases, each a generated scene and ray set with an
+//! expected answer, run against every backend and mode: native
+//! Möller–Trumbore, native watertight, Embree, Embree with its robust flag.
+//!
+//! Every case counts the rays whose answer breaks the expectation (a leak,
+//! a false hit, a wrong distance, a self-intersection), the NaN answers and
+//! the panics; nothing is only asserted, everything is printed.
+
+use std::panic::{catch_unwind, AssertUnwindSafe};
+
+use glam::Vec3;
+
+use super::rays::uniform_sphere;
+use crate::accel::embree::EmbreeOptions;
+use crate::accel::native::triangle::{
+    MollerTrumbore, RayTriangleSetup, TriangleMode, TriangleTest, Watertight,
+};
+use crate::accel::native::NativeOptions;
+use crate::accel::{Accel, AccelError, AccelKind, AccelOptions, Backend, Hit, Ray, TraceCounters};
+use crate::render::integrator::spawn_ray;
+use crate::render::sampling::{cosine_hemisphere, Frame, Rng};
+use crate::scene::generate::{cube, icosphere, plate, SceneBuilder};
+use crate::scene::{Material, NormalMode, Scene};
+
+/// A backend configuration of the hard-case table.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Mode {
+    NativeMollerTrumbore,
+    NativeWatertight,
+    Embree,
+    EmbreeRobust,
+}
+
+pub const MODES: [Mode; 4] = [
+    Mode::NativeMollerTrumbore,
+    Mode::NativeWatertight,
+    Mode::Embree,
+    Mode::EmbreeRobust,
+];
+
+impl Mode {
+    pub fn name(self) -> &'static str {
+        match self {
+            Mode::NativeMollerTrumbore => "native MT",
+            Mode::NativeWatertight => "native watertight",
+            Mode::Embree => "embree",
+            Mode::EmbreeRobust => "embree robust",
+        }
+    }
+
+    fn build(self, scene: &Scene) -> Result<Backend<'_>, AccelError> {
+        let native = |triangle| NativeOptions {
+            triangle,
+            ..NativeOptions::default()
+        };
+        let (kind, options) = match self {
+            Mode::NativeMollerTrumbore => (
+                AccelKind::Native,
+                AccelOptions {
+                    native: native(TriangleMode::MollerTrumbore),
+                    ..AccelOptions::default()
+                },
+            ),
+            Mode::NativeWatertight => (
+                AccelKind::Native,
+                AccelOptions {
+                    native: native(TriangleMode::Watertight),
+                    ..AccelOptions::default()
+                },
+            ),
+            Mode::Embree => (AccelKind::Embree, AccelOptions::default()),
+            Mode::EmbreeRobust => (
+                AccelKind::Embree,
+                AccelOptions {
+                    embree: EmbreeOptions {
+                        robust: true,
+                        ..EmbreeOptions::default()
+                    },
+                    ..AccelOptions::default()
+                },
+            ),
+        };
+        Backend::build(kind, scene, &options)
+    }
+}
+
+/// What a ray should find.
+#[derive(Clone, Copy, Debug)]
+pub enum Expect {
+    /// Something, anywhere: a miss is a leak.
+    Hit,
+    /// Something, no farther than `t` (relative slack 1e-3): a miss, or a
+    /// first hit beyond the aimed point, is a leak.
+    HitBy(f32),
+    /// Something at `t` within the relative tolerance.
+    HitAt(f32, f32),
+    /// Nothing: a hit is a false hit (or a self-intersection).
+    Miss,
+    /// Not this primitive (a degenerate one): hitting it is a false hit.
+    NotPrimitive(u32),
+    /// Measured only.
+    Anything,
+}
+
+/// One hard case.
+pub struct Case {
+    pub name: String,
+    /// What a failure of the expectation is called in the table.
+    pub failure: &'static str,
+    pub scene: Scene,
+    pub rays: Vec<(Ray, Expect)>,
+    /// Whether the watertight design promises zero failures here.
+    pub watertight_promise: bool,
+    /// For edge-aimed rays: the two triangles sharing the edge, to count
+    /// double hits with the native triangle tests.
+    pub edge_pairs: Vec<Option<(u32, u32)>>,
+}
+
+/// A case's outcome for one mode.
+#[derive(Clone, Debug, Default)]
+pub struct Outcome {
+    pub rays: usize,
+    pub failures: usize,
+    pub nans: usize,
+    pub panics: usize,
+    /// Rays that hit both triangles of the edge they aim at (native only).
+    pub double_hits: Option<usize>,
+    /// Largest relative `t` error among `HitAt` rays that hit.
+    pub worst_t_error: f32,
+}
+
+pub struct CaseReport {
+    pub name: String,
+    pub failure: &'static str,
+    pub watertight_promise: bool,
+    pub outcomes: Vec<(Mode, Outcome)>,
+}
+
+fn is_nan(h: &Hit) -> bool {
+    !h.t.is_finite() || !h.normal.is_finite() || h.u.is_nan() || h.v.is_nan()
+}
+
+fn judge(expect: Expect, hit: Option<Hit>) -> (bool, f32) {
+    match (expect, hit) {
+        (Expect::Hit, h) => (h.is_some(), 0.0),
+        (Expect::HitBy(t), Some(h)) => (h.t <= t * (1.0 + 1e-3), 0.0),
+        (Expect::HitBy(_), None) => (false, 0.0),
+        (Expect::HitAt(t, tol), Some(h)) => {
+            let e = (h.t - t).abs() / t.abs().max(f32::MIN_POSITIVE);
+            (e <= tol, e)
+        }
+        (Expect::HitAt(..), None) => (false, 0.0),
+        (Expect::Miss, h) => (h.is_none(), 0.0),
+        (Expect::NotPrimitive(p), h) => (h.is_none_or(|h| h.prim != p), 0.0),
+        (Expect::Anything, _) => (true, 0.0),
+    }
+}
+
+/// Runs one case on one mode.
+pub fn run_case(case: &Case, mode: Mode) -> Result<Outcome, AccelError> {
+    let accel = mode.build(&case.scene)?;
+    let mut out = Outcome {
+        rays: case.rays.len(),
+        ..Outcome::default()
+    };
+    let mut counters = TraceCounters::default();
+    for (ray, expect) in &case.rays {
+        let hit = match catch_unwind(AssertUnwindSafe(|| accel.closest_hit(ray, &mut counters))) {
+            Ok(h) => h,
+            Err(_) => {
+                out.panics += 1;
+                continue;
+            }
+        };
+        if hit.as_ref().is_some_and(is_nan) {
+            out.nans += 1;
+        }
+        let (ok, t_error) = judge(*expect, hit);
+        if !ok {
+            out.failures += 1;
+        }
+        out.worst_t_error = out.worst_t_error.max(t_error);
+    }
+    if !case.edge_pairs.is_empty()
+        && matches!(mode, Mode::NativeMollerTrumbore | Mode::NativeWatertight)
+    {
+        let doubles = case
+            .rays
+            .iter()
+            .zip(&case.edge_pairs)
+            .filter(|(_, pair)| pair.is_some())
+            .filter(|((ray, _), pair)| {
+                let (a, b) = pair.unwrap();
+                let setup = RayTriangleSetup::new(ray);
+                let test = |t: u32| {
+                    let [p, q, r] = case.scene.mesh.corners(t as usize);
+                    match mode {
+                        Mode::NativeMollerTrumbore => MollerTrumbore::intersect(
+                            &MollerTrumbore::prepare(p, q, r),
+                            &setup,
+                            ray.t_min,
+                            ray.t_max,
+                        )
+                        .is_some(),
+                        _ => Watertight::intersect(
+                            &Watertight::prepare(p, q, r),
+                            &setup,
+                            ray.t_min,
+                            ray.t_max,
+                        )
+                        .is_some(),
+                    }
+                };
+                test(a) && test(b)
+            })
+            .count();
+        out.double_hits = Some(doubles);
+    }
+    Ok(out)
+}
+
+/// Runs every case on every mode.
+pub fn run_all(cases: &[Case]) -> Result<Vec<CaseReport>, AccelError> {
+    cases
+        .iter()
+        .map(|case| {
+            let outcomes = MODES
+                .iter()
+                .map(|&m| run_case(case, m).map(|o| (m, o)))
+                .collect::<Result<Vec<_>, _>>()?;
+            Ok(CaseReport {
+                name: case.name.clone(),
+                failure: case.failure,
+                watertight_promise: case.watertight_promise,
+                outcomes,
+            })
+        })
+        .collect()
+}
+
+/// The hard-case table as Markdown.
+pub fn format_table(reports: &[CaseReport]) -> String {
+    let mut out = String::from("| case | counted | ");
+    out += &MODES
+        .iter()
+        .map(|m| m.name())
+        .collect::<Vec<_>>()
+        .join(" | ");
+    out += " |\n|---|---|";
+    out += &"---|".repeat(MODES.len());
+    out += "\n";
+    for r in reports {
+        out += &format!(
+            "| {}{} | {} |",
+            r.name,
+            if r.watertight_promise { " ★" } else { "" },
+            r.failure
+        );
+        for (_, o) in &r.outcomes {
+            let mut cell = format!(
+                " {}/{} ({:.2}%)",
+                o.failures,
+                o.rays,
+                100.0 * o.failures as f64 / o.rays.max(1) as f64
+            );
+            if let Some(d) = o.double_hits {
+                cell += &format!(", {d} double");
+            }
+            if o.worst_t_error > 0.0 {
+                cell += &format!(", max t err {:.1e}", o.worst_t_error);
+            }
+            if o.nans > 0 {
+                cell += &format!(", {} NaN", o.nans);
+            }
+            if o.panics > 0 {
+                cell += &format!(", {} PANICS", o.panics);
+            }
+            out += &cell;
+            out += " |";
+        }
+        out += "\n";
+    }
+    out += "\n★ watertight mode promises zero here.\n";
+    out
+}
+
+fn mesh_scene(name: &str, positions: &[Vec3], tris: &[[u32; 3]]) -> Scene {
+    let mut b = SceneBuilder::new(name);
+    let m = b.material(Material::DEFAULT);
+    b.mesh(positions, tris, m);
+    b.finish(NormalMode::Flat)
+}
+
+/// Edges shared by exactly two triangles: (vertex a, vertex b, tri 1, tri 2).
+fn shared_edges(tris: &[[u32; 3]]) -> Vec<(u32, u32, u32, u32)> {
+    let mut map: std::collections::HashMap<(u32, u32), Vec<u32>> = std::collections::HashMap::new();
+    for (i, t) in tris.iter().enumerate() {
+        for k in 0..3 {
+            let (a, b) = (t[k], t[(k + 1) % 3]);
+            map.entry((a.min(b), a.max(b))).or_default().push(i as u32);
+        }
+    }
+    let mut edges: Vec<_> = map
+        .into_iter()
+        .filter(|(_, v)| v.len() == 2)
+        .map(|((a, b), v)| (a, b, v[0], v[1]))
+        .collect();
+    edges.sort();
+    edges
+}
+
+/// Rays aimed exactly at points of shared edges and at vertices.
+///
+/// From inside a closed mesh every ray must hit something (`Expect::Hit`).
+/// From outside, a ray aimed at a silhouette edge only touches the surface,
+/// which is ill-posed; so only edges whose two triangles both face the
+/// origin are aimed at, and the first hit must come no later than the
+/// aimed point (`Expect::HitBy`).
+fn aimed_rays(
+    name: &str,
+    inside: bool,
+    origin_of: impl Fn(&mut Rng) -> Vec3,
+    positions: &[Vec3],
+    tris: &[[u32; 3]],
+    n: usize,
+    seed: u64,
+) -> Case {
+    let edges = shared_edges(tris);
+    let normal = |t: u32| {
+        let [a, b, c] = tris[t as usize].map(|i| positions[i as usize]);
+        (b - a).cross(c - a)
+    };
+    let mut rng = Rng::new(seed, 11);
+    let mut rays = Vec::with_capacity(n);
+    let mut pairs = Vec::with_capacity(n);
+    let mut attempts = 0;
+    while rays.len() < n && attempts < 100 * n {
+        attempts += 1;
+        let origin = origin_of(&mut rng);
+        let (target, pair) = if inside && rays.len() % 4 == 3 {
+            (positions[(rng.next_u32() as usize) % positions.len()], None)
+        } else {
+            let (a, b, t1, t2) = edges[(rng.next_u32() as usize) % edges.len()];
+            let s = 0.05 + 0.9 * rng.next_f32();
+            (
+                positions[a as usize].lerp(positions[b as usize], s),
+                Some((t1, t2)),
+            )
+        };
+        let dir = target - origin;
+        if !inside {
+            let (t1, t2) = pair.expect("outside rays aim at edges");
+            if normal(t1).dot(dir) >= 0.0 || normal(t2).dot(dir) >= 0.0 {
+                continue;
+            }
+        }
+        let expect = if inside {
+            Expect::Hit
+        } else {
+            Expect::HitBy(dir.length())
+        };
+        rays.push((Ray::new(origin, dir.normalize()), expect));
+        pairs.push(pair);
+    }
+    Case {
+        name: name.into(),
+        failure: "leaks",
+        scene: mesh_scene(name, positions, tris),
+        rays,
+        watertight_promise: true,
+        edge_pairs: pairs,
+    }
+}
+
+/// The hard cases; `scanned` adds a shared scanned mesh when given.
+pub fn cases(rays_per_case: usize, seed: u64, scanned: Option<&Scene>) -> Vec<Case> {
+    let n = rays_per_case.max(100);
+    let mut cases = Vec::new();
+
+    // Closed meshes, edges and vertices, from inside and outside.
+    let (sp, st) = icosphere(4);
+    cases.push(aimed_rays(
+        "icosphere 5120 tris, edges+vertices from inside",
+        true,
+        |r| uniform_sphere(r.next_f32(), r.next_f32()) * 0.5 * r.next_f32(),
+        &sp,
+        &st,
+        n,
+        seed,
+    ));
+    cases.push(aimed_rays(
+        "icosphere 5120 tris, front-facing edges from outside",
+        false,
+        |r| uniform_sphere(r.next_f32(), r.next_f32()) * 3.0,
+        &sp,
+        &st,
+        n,
+        seed + 1,
+    ));
+    let (cp, ct) = cube(false);
+    cases.push(aimed_rays(
+        "cube, edges+vertices from inside",
+        true,
+        |r| (Vec3::new(r.next_f32(), r.next_f32(), r.next_f32()) - 0.5) * 1.6,
+        &cp,
+        &ct,
+        n,
+        seed + 2,
+    ));
+    cases.push(aimed_rays(
+        "cube, front-facing edges from outside",
+        false,
+        |r| uniform_sphere(r.next_f32(), r.next_f32()) * 4.0,
+        &cp,
+        &ct,
+        n,
+        seed + 3,
+    ));
+    if let Some(scene) = scanned {
+        let b = scene.bounds();
+        let (c, radius) = (b.center(), b.extent().length());
+        let mut case = aimed_rays(
+            &format!(
+                "{} (scanned), front-facing shared edges from outside",
+                scene.name.rsplit('/').next().unwrap_or("scanned")
+            ),
+            false,
+            |r| c + uniform_sphere(r.next_f32(), r.next_f32()) * radius,
+            &scene.mesh.positions,
+            &scene.mesh.indices,
+            n,
+            seed + 4,
+        );
+        case.scene = scene.clone();
+        cases.push(case);
+    }
+
+    // Translated far from the origin: the same closed sphere.
+    for offset in [1e3f32, 1e4, 1e5, 1e6] {
+        let shift = Vec3::new(offset, -offset * 0.5, offset * 0.25);
+        let moved: Vec<Vec3> = sp.iter().map(|p| *p + shift).collect();
+        let mut case = aimed_rays(
+            &format!("icosphere at {offset:.0e}, from inside"),
+            true,
+            move |r| shift + uniform_sphere(r.next_f32(), r.next_f32()) * 0.5 * r.next_f32(),
+            &moved,
+            &st,
+            n / 2,
+            seed + 5,
+        );
+        case.watertight_promise = true;
+        cases.push(case);
+    }
+
+    // Axis-aligned rays with +0 / -0 components at grid lines of a plate.
+    {
+        let (pp, pt) = plate(16);
+        let mut rng = Rng::new(seed, 12);
+        let mut rays = Vec::new();
+        for i in 0..n {
+            let gx = (rng.next_u32() % 33) as f32 / 16.0 - 1.0; // edges and vertices: multiples of 1/16
+            let gy = (rng.next_u32() % 33) as f32 / 16.0 - 1.0;
+            let (gx, gy) = if gx.abs() == 1.0 || gy.abs() == 1.0 {
+                (gx * 0.999, gy * 0.999)
+            } else {
+                (gx, gy)
+            };
+            let zx = if i & 1 == 0 { 0.0 } else { -0.0 };
+            let zy = if i & 2 == 0 { 0.0 } else { -0.0 };
+            rays.push((
+                Ray::new(Vec3::new(gx, gy, 1.0), Vec3::new(zx, zy, -1.0)),
+                Expect::HitAt(1.0, 1e-6),
+            ));
+        }
+        cases.push(Case {
+            name: "plate 16x16, axis-aligned ±0 rays at grid lines".into(),
+            failure: "leaks",
+            scene: mesh_scene("plate", &pp, &pt),
+            rays,
+            watertight_promise: true,
+            edge_pairs: Vec::new(),
+        });
+
+        // Rays in the plate's plane, and parallel just above it.
+        let mut rays = Vec::new();
+        for i in 0..n {
+            let y = rng.next_f32() * 1.8 - 0.9;
+            let z = if i % 2 == 0 { 0.0 } else { 1e-3 };
+            let expect = if z == 0.0 {
+                Expect::Anything
+            } else {
+                Expect::Miss
+            };
+            rays.push((Ray::new(Vec3::new(-2.0, y, z), Vec3::X), expect));
+        }
+        cases.push(Case {
+            name: "plate, rays parallel to the plane (in it, and 1e-3 above)".into(),
+            failure: "false hits above",
+            scene: mesh_scene("plate", &pp, &pt),
+            rays,
+            watertight_promise: false,
+            edge_pairs: Vec::new(),
+        });
+
+        // Grazing rays at 1e-2 .. 1e-5 radians to an interior point.
+        let mut rays = Vec::new();
+        for i in 0..n {
+            let angle = 10f32.powf(-2.0 - 3.0 * (i as f32 / n as f32));
+            let target = Vec3::new(
+                rng.next_f32() * 0.5 - 0.25,
+                rng.next_f32() * 0.5 - 0.25,
+                0.0,
+            );
+            let dir = Vec3::new(angle.cos(), 0.0, -angle.sin());
+            let dist = 0.5;
+            rays.push((
+                Ray::new(target - dir * dist, dir),
+                Expect::HitAt(dist, 1e-3),
+            ));
+        }
+        cases.push(Case {
+            name: "plate, grazing rays 1e-2..1e-5 rad".into(),
+            failure: "misses or t err > 1e-3",
+            scene: mesh_scene("plate", &pp, &pt),
+            rays,
+            watertight_promise: false,
+            edge_pairs: Vec::new(),
+        });
+    }
+
+    // Tiny and huge triangles: interior points must be hit at the right t,
+    // points outside must be missed.
+    for scale in [1e-6f32, 1e6] {
+        let tri = [
+            Vec3::new(0.0, 0.0, 0.0),
+            Vec3::new(scale, 0.0, 0.0),
+            Vec3::new(0.0, scale, 0.0),
+        ];
+        let mut rng = Rng::new(seed, 13);
+        let mut rays = Vec::new();
+        for i in 0..n {
+            let (mut a, mut b) = (0.05 + 0.9 * rng.next_f32(), 0.05 + 0.9 * rng.next_f32());
+            if a + b > 0.95 {
+                a *= 0.5;
+                b *= 0.5;
+            }
+            let dir = uniform_sphere(rng.next_f32(), rng.next_f32() * 0.5);
+            let dir = Vec3::new(dir.x * 0.5, dir.y * 0.5, -dir.z.abs().max(0.2)).normalize();
+            let dist = scale * 3.0;
+            let (target, expect) = if i % 4 == 3 {
+                (
+                    Vec3::new(-0.5 * scale * a - 0.01 * scale, scale * b, 0.0),
+                    Expect::Miss,
+                )
+            } else {
+                (
+                    tri[0] + (tri[1] - tri[0]) * a + (tri[2] - tri[0]) * b,
+                    Expect::HitAt(dist, 1e-4),
+                )
+            };
+            rays.push((Ray::new(target - dir * dist, dir), expect));
+        }
+        cases.push(Case {
+            name: format!("single triangle of size {scale:.0e}"),
+            failure: "wrong answers",
+            scene: mesh_scene("triangle", &tri, &[[0, 1, 2]]),
+            rays,
+            watertight_promise: false,
+            edge_pairs: Vec::new(),
+        });
+    }
+
+    // Zero-area and needle triangles inside a mesh.
+    {
+        let positions = vec![
+            Vec3::new(-1.0, -1.0, 0.0),
+            Vec3::new(1.0, -1.0, 0.0),
+            Vec3::new(1.0, 1.0, 0.0),
+            // collinear (zero area) on the line y = 0.3, z = 0.5
+            Vec3::new(-1.0, 0.3, 0.5),
+            Vec3::new(0.0, 0.3, 0.5),
+            Vec3::new(1.0, 0.3, 0.5),
+            // needle: width 1e-7 along x at y = -0.3, z = 0.5
+            Vec3::new(-1.0, -0.3, 0.5),
+            Vec3::new(1.0, -0.3, 0.5),
+            Vec3::new(1.0, -0.3 + 1e-7, 0.5),
+        ];
+        let tris = [[0, 1, 2], [3, 4, 5], [3, 3, 4], [6, 7, 8]];
+        let mut rng = Rng::new(seed, 14);
+        let mut rays = Vec::new();
+        for i in 0..n {
+            let x = rng.next_f32() * 1.8 - 0.9;
+            let jitter = (rng.next_f32() - 0.5) * 1e-6;
+            let (y, expect) = match i % 3 {
+                0 => (0.3 + jitter, Expect::NotPrimitive(1)),
+                1 => (0.3 + jitter, Expect::NotPrimitive(2)),
+                _ => (-0.3 + jitter, Expect::Anything),
+            };
+            rays.push((Ray::new(Vec3::new(x, y, 2.0), -Vec3::Z), expect));
+        }
+        cases.push(Case {
+            name: "zero-area and needle triangles in a mesh".into(),
+            failure: "false hits",
+            scene: mesh_scene("degenerate", &positions, &tris),
+            rays,
+            watertight_promise: false,
+            edge_pairs: Vec::new(),
+        });
+    }
+
+    // Secondary rays leaving a convex surface: any hit is a
+    // self-intersection. The project's spawn rule against fixed offsets.
+    for offset in [0.0f32, 1e2, 1e4] {
+        for (rule, label) in [
+            (Spawn::Project, "spawn rule"),
+            (Spawn::Fixed(1e-4), "fixed 1e-4"),
+            (Spawn::Fixed(0.0), "no offset"),
+        ] {
+            let shift = Vec3::splat(offset);
+            let moved: Vec<Vec3> = sp.iter().map(|p| *p + shift).collect();
+            let scene = mesh_scene("icosphere", &moved, &st);
+            let rays = leaving_rays(&scene, shift, n, seed + 6, rule);
+            cases.push(Case {
+                name: format!("rays leaving an icosphere at {offset:.0e}, {label}"),
+                failure: "self-intersections",
+                scene,
+                rays,
+                watertight_promise: false,
+                edge_pairs: Vec::new(),
+            });
+        }
+    }
+
+    // Spheres: from inside, from outside, tangent; tiny to huge radii.
+    for radius in [1e-4f32, 1.0, 1e4] {
+        let mut b = SceneBuilder::new("sphere");
+        let m = b.material(Material::DEFAULT);
+        let centre = Vec3::new(radius * 0.3, -radius * 0.2, radius * 0.1);
+        b.sphere(centre, radius, m);
+        let scene = b.finish(NormalMode::Flat);
+        let mut rng = Rng::new(seed, 15);
+        let mut rays = Vec::new();
+        for i in 0..n {
+            let d = uniform_sphere(rng.next_f32(), rng.next_f32());
+            let ray = match i % 3 {
+                0 => (Ray::new(centre, d), Expect::HitAt(radius, 1e-4)),
+                1 => (
+                    Ray::new(centre - d * 3.0 * radius, d),
+                    Expect::HitAt(2.0 * radius, 1e-4),
+                ),
+                _ => {
+                    let side = Frame::new(d).s;
+                    (
+                        Ray::new(centre + side * radius - d * 2.0 * radius, d),
+                        Expect::Anything,
+                    )
+                }
+            };
+            rays.push(ray);
+        }
+        cases.push(Case {
+            name: format!("sphere r={radius:.0e}: inside, outside, tangent"),
+            failure: "wrong t (inside/outside)",
+            scene,
+            rays,
+            watertight_promise: false,
+            edge_pairs: Vec::new(),
+        });
+    }
+
+    // NaN and infinite rays: reported as misses, never a crash.
+    {
+        let (pp, pt) = plate(4);
+        let bad = [f32::NAN, f32::INFINITY, f32::NEG_INFINITY];
+        let mut rays = Vec::new();
+        for i in 0..n.min(300) {
+            let v = bad[i % 3];
+            let ray = match (i / 3) % 4 {
+                0 => Ray::new(Vec3::new(v, 0.0, 1.0), -Vec3::Z),
+                1 => Ray::new(Vec3::new(0.0, 0.0, 1.0), Vec3::new(0.0, v, -1.0)),
+                2 => Ray {
+                    origin: Vec3::new(0.0, 0.0, 1.0),
+                    dir: -Vec3::Z,
+                    t_min: 0.0,
+                    t_max: v,
+                },
+                _ => Ray::new(Vec3::new(0.0, 0.0, 1.0), Vec3::ZERO),
+            };
+            // An infinite t_max on a valid ray is a normal ray.
+            let expect = if (i / 3) % 4 == 2 && v == f32::INFINITY {
+                Expect::HitAt(1.0, 1e-6)
+            } else {
+                Expect::Miss
+            };
+            rays.push((ray, expect));
+        }
+        cases.push(Case {
+            name: "NaN / infinite / zero-direction rays".into(),
+            failure: "answers other than a miss",
+            scene: mesh_scene("plate", &pp, &pt),
+            rays,
+            watertight_promise: false,
+            edge_pairs: Vec::new(),
+        });
+    }
+    cases
+}
+
+#[derive(Clone, Copy)]
+enum Spawn {
+    Project,
+    Fixed(f32),
+}
+
+/// Cosine-distributed rays leaving hit points of a convex mesh centred at
+/// `centre`, spawned with `rule`; they must hit nothing.
+fn leaving_rays(
+    scene: &Scene,
+    centre: Vec3,
+    n: usize,
+    seed: u64,
+    rule: Spawn,
+) -> Vec<(Ray, Expect)> {
+    // Hit points from rays shot at the surface from outside (native
+    // Möller–Trumbore finds them; every mode then gets the same rays).
+    let finder = Backend::build(AccelKind::Native, scene, &AccelOptions::default())
+        .expect("the native backend cannot fail");
+    let mut rng = Rng::new(seed, 16);
+    let mut rays = Vec::with_capacity(n);
+    let mut counters = TraceCounters::default();
+    while rays.len() < n {
+        let d = uniform_sphere(rng.next_f32(), rng.next_f32());
+        let probe = Ray::new(centre + d * 3.0, -d);
+        let Some(hit) = finder.closest_hit(&probe, &mut counters) else {
+            continue;
+        };
+        let p = probe.at(hit.t);
+        let ng = if hit.normal.dot(probe.dir) > 0.0 {
+            -hit.normal
+        } else {
+            hit.normal
+        };
+        let (u, v) = rng.next_2d();
+        let dir = Frame::new(ng).to_world(cosine_hemisphere(u, v));
+        let ray = match rule {
+            Spawn::Project => spawn_ray(p, ng, dir, f32::INFINITY),
+            Spawn::Fixed(eps) => Ray::new(p + ng * eps, dir),
+        };
+        rays.push((ray, Expect::Miss));
+    }
+    rays
+}
