@@ -123,6 +123,17 @@ fn main() {
     println!("cargo:rustc-link-lib=dylib={}", embree.lib);
     println!("cargo:rustc-cfg=embree_major=\"{}\"", embree.major);
     println!("cargo:rustc-env=HYBRID_EMBREE_MAJOR={}", embree.major);
+    // The compiler's version, for the report's header.
+    let rustc = env::var("RUSTC").unwrap_or_else(|_| "rustc".into());
+    let version = Command::new(rustc)
+        .arg("--version")
+        .output()
+        .ok()
+        .map(|o| String::from_utf8_lossy(&o.stdout).trim().to_string());
+    println!(
+        "cargo:rustc-env=HYBRID_RUSTC_VERSION={}",
+        version.unwrap_or_else(|| "unknown".into())
+    );
 
     if !clang_sys_available() {
         fail("libclang (needed by bindgen) was not found");

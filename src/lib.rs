@@ -6,10 +6,12 @@
 //!   brute force).
 //! - [`render`]: camera, sampling, materials, lights, integrators and film.
 //! - [`parity`]: the cross-backend agreement and numerical-stability suite.
+//! - [`report`]: the performance comparison report.
 //! - [`cli`]: the command-line front end.
 
 pub mod accel;
 pub mod cli;
 pub mod parity;
 pub mod render;
+pub mod report;
 pub mod scene;

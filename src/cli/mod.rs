@@ -15,6 +15,7 @@ macro_rules! say {
 
 mod parity;
 mod render;
+mod report;
 
 use std::path::{Path, PathBuf};
 
@@ -44,6 +45,8 @@ pub enum Command {
     Render(render::RenderArgs),
     /// Compare every backend on the same rays (`--hard`: numerical hard cases).
     Parity(parity::ParityArgs),
+    /// Measure both backends and write the comparison report.
+    Report(report::ReportArgs),
 }
 
 /// Runs the program; returns the exit code.
@@ -59,6 +62,7 @@ pub fn main() -> i32 {
     let outcome = match cli.command {
         Command::Render(args) => render::run(&args).map(|()| true),
         Command::Parity(args) => parity::run(&args),
+        Command::Report(args) => report::run(&args).map(|()| true),
     };
     match outcome {
         Ok(true) => 0,

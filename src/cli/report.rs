@@ -1,0 +1,40 @@
+//! `hybrid report`: the performance comparison report.
+
+use std::path::PathBuf;
+
+use clap::Args;
+
+use crate::report::{run as run_report, ReportOptions};
+
+#[derive(Args, Debug, Clone)]
+pub struct ReportArgs {
+    /// Folder of the shared scenes (default: HYBRID_SCENES or ../shared/scenes).
+    #[arg(long)]
+    pub scenes: Option<PathBuf>,
+    /// Output folder for report.md, report.json and the plots.
+    #[arg(long, default_value = "report")]
+    pub out: PathBuf,
+    /// Reduced sizes and repeats (under two minutes on two cores).
+    #[arg(long)]
+    pub quick: bool,
+    /// Threads for the all-threads figures (default: all cores).
+    #[arg(short = 't', default_value_t = 0)]
+    pub threads: usize,
+}
+
+pub fn run(args: &ReportArgs) -> Result<(), String> {
+    let scenes_dir = args.scenes.clone().unwrap_or_else(super::shared_scenes_dir);
+    if !scenes_dir.is_dir() {
+        return Err(format!(
+            "{}: the shared scenes folder does not exist (use --scenes DIR)",
+            scenes_dir.display()
+        ));
+    }
+    let options = ReportOptions {
+        scenes_dir,
+        out_dir: args.out.clone(),
+        quick: args.quick,
+        threads: args.threads,
+    };
+    run_report(&options, &mut |line| say!("{line}"))
+}
