@@ -6,7 +6,7 @@ use std::time::Instant;
 use glam::Vec3;
 
 use super::native::sphere::intersect_sphere;
-use super::native::triangle::{MollerTrumbore, RayTriangleSetup, TriangleTest};
+use super::native::triangle::{MollerTrumbore, TriangleTest};
 use super::{Accel, AccelStats, Hit, Ray, TraceCounters};
 use crate::scene::Scene;
 
@@ -39,7 +39,7 @@ impl BruteForce {
         if !ray.is_traceable() {
             return None;
         }
-        let setup = RayTriangleSetup::new(ray);
+        let setup = MollerTrumbore::setup(ray);
         let mut best: Option<Hit> = None;
         let mut t_max = ray.t_max;
         for (i, tri) in self.triangles.iter().enumerate() {

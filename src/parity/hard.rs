@@ -12,9 +12,7 @@ use glam::Vec3;
 
 use super::rays::uniform_sphere;
 use crate::accel::embree::EmbreeOptions;
-use crate::accel::native::triangle::{
-    MollerTrumbore, RayTriangleSetup, TriangleMode, TriangleTest, Watertight,
-};
+use crate::accel::native::triangle::{MollerTrumbore, TriangleMode, TriangleTest, Watertight};
 use crate::accel::native::NativeOptions;
 use crate::accel::{Accel, AccelError, AccelKind, AccelOptions, Backend, Hit, Ray, TraceCounters};
 use crate::render::integrator::spawn_ray;
@@ -191,24 +189,11 @@ pub fn run_case(case: &Case, mode: Mode) -> Result<Outcome, AccelError> {
             .filter(|(_, pair)| pair.is_some())
             .filter(|((ray, _), pair)| {
                 let (a, b) = pair.unwrap();
-                let setup = RayTriangleSetup::new(ray);
                 let test = |t: u32| {
                     let [p, q, r] = case.scene.mesh.corners(t as usize);
                     match mode {
-                        Mode::NativeMollerTrumbore => MollerTrumbore::intersect(
-                            &MollerTrumbore::prepare(p, q, r),
-                            &setup,
-                            ray.t_min,
-                            ray.t_max,
-                        )
-                        .is_some(),
-                        _ => Watertight::intersect(
-                            &Watertight::prepare(p, q, r),
-                            &setup,
-                            ray.t_min,
-                            ray.t_max,
-                        )
-                        .is_some(),
+                        Mode::NativeMollerTrumbore => hits::<MollerTrumbore>([p, q, r], ray),
+                        _ => hits::<Watertight>([p, q, r], ray),
                     }
                 };
                 test(a) && test(b)
@@ -217,6 +202,11 @@ pub fn run_case(case: &Case, mode: Mode) -> Result<Outcome, AccelError> {
         out.double_hits = Some(doubles);
     }
     Ok(out)
+}
+
+/// Whether triangle test `T` reports a hit of `ray` on a triangle.
+fn hits<T: TriangleTest>([p, q, r]: [Vec3; 3], ray: &Ray) -> bool {
+    T::intersect(&T::prepare(p, q, r), &T::setup(ray), ray.t_min, ray.t_max).is_some()
 }
 
 /// Runs every case on every mode.

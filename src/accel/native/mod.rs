@@ -8,13 +8,15 @@
 pub mod bvh;
 pub mod sphere;
 pub mod triangle;
+pub mod wide;
 
 use std::time::Instant;
 
 use glam::Vec3;
 
-use self::bvh::{BuildMethod, Bvh, BvhNode};
-use self::triangle::{MollerTrumbore, RayTriangleSetup, TriangleMode, TriangleTest, Watertight};
+use self::bvh::{BuildMethod, Bvh};
+use self::triangle::{MollerTrumbore, TriangleBlock4, TriangleMode, TriangleTest, Watertight};
+use self::wide::{BoxRay4, Bvh4, ChildHit};
 use super::{Accel, AccelStats, Hit, Ray, TraceCounters};
 use crate::scene::{Bounds, Scene};
 
@@ -44,113 +46,117 @@ const MAX_DEPTH: usize = 96;
 /// Conservative far-plane scale for the box test, 1 + 2γ(3) (Ize 2013,
 /// "Robust BVH ray traversal", JCGT 2(2)), so that rounding in the slab test
 /// never culls a box the watertight triangle test would hit.
-const BOX_FAR_SCALE: f32 =
+pub(crate) const BOX_FAR_SCALE: f32 =
     1.0 + 2.0 * (3.0 * f32::EPSILON * 0.5) / (1.0 - 3.0 * f32::EPSILON * 0.5);
 
 pub struct NativeBvh {
     options: NativeOptions,
+    /// The binary SAH tree (statistics, invariants) and the 4-wide tree
+    /// traversed.
     triangles: Bvh,
-    /// Per leaf slot: data of [`TriangleTest::prepare`].
-    triangle_data: Vec<[Vec3; 3]>,
+    triangles4: Bvh4,
+    triangle_store: TriangleStore,
     spheres: Bvh,
+    spheres4: Bvh4,
     /// Per leaf slot: centre and radius.
     sphere_data: Vec<(Vec3, f32)>,
     triangle_count: u32,
     build_ms: f64,
 }
 
-/// A ray prepared for slab tests.
-struct BoxRay {
-    origin: Vec3,
-    inv_dir: Vec3,
-    dir_negative: [bool; 3],
-}
-
-impl BoxRay {
-    fn new(ray: &Ray) -> Self {
-        // Zero components get a huge finite reciprocal of the same sign, so
-        // that a slab plane through the origin gives 0 * huge = 0, never
-        // 0 * inf = NaN.
-        let safe = |d: f32| {
-            1.0 / if d.abs() < 1e-30 {
-                1e-30f32.copysign(d)
-            } else {
-                d
-            }
-        };
-        let inv_dir = Vec3::new(safe(ray.dir.x), safe(ray.dir.y), safe(ray.dir.z));
-        BoxRay {
-            origin: ray.origin,
-            inv_dir,
-            dir_negative: [inv_dir.x < 0.0, inv_dir.y < 0.0, inv_dir.z < 0.0],
+/// Reciprocal direction with zero components replaced by a huge finite
+/// value of the same sign, so that a slab plane through the origin gives
+/// 0 * huge = 0, never 0 * inf = NaN.
+fn safe_inverse(dir: Vec3) -> Vec3 {
+    let safe = |d: f32| {
+        1.0 / if d.abs() < 1e-30 {
+            1e-30f32.copysign(d)
+        } else {
+            d
         }
-    }
-
-    #[inline(always)]
-    fn hits(&self, node: &BvhNode, t_min: f32, t_max: f32) -> bool {
-        let t0 = (Vec3::from(node.min) - self.origin) * self.inv_dir;
-        let t1 = (Vec3::from(node.max) - self.origin) * self.inv_dir;
-        let near = t0.min(t1).max_element().max(t_min);
-        let far = t0.max(t1).min_element() * BOX_FAR_SCALE;
-        near <= far.min(t_max)
-    }
+    };
+    Vec3::new(safe(dir.x), safe(dir.y), safe(dir.z))
 }
 
-/// Walks `nodes` front to back and calls `leaf_test(slot, t_max)` for every
-/// primitive slot of every leaf the ray reaches; a `Some(t)` shrinks the
-/// interval. With `any`, stops at the first hit. Returns whether anything
-/// was hit.
+/// Deepest stack the 4-wide traversal needs: up to three deferred
+/// children per level of the binary tree.
+const STACK: usize = 3 * MAX_DEPTH + 4;
+
+/// Walks the 4-wide tree front to back and calls `leaf_test(first, count,
+/// t_max)` for every leaf the ray reaches; it returns the nearest hit in
+/// the leaf, which shrinks the interval. With `any`, stops at the first hit.
+/// Returns whether anything was hit.
 #[inline(always)]
 fn traverse(
-    nodes: &[BvhNode],
-    ray: &BoxRay,
+    tree: &Bvh4,
+    ray: &BoxRay4,
     t_min: f32,
     t_max: &mut f32,
     any: bool,
     counters: &mut TraceCounters,
-    mut leaf_test: impl FnMut(usize, f32) -> Option<f32>,
+    mut leaf_test: impl FnMut(u32, u32, f32) -> Option<f32>,
 ) -> bool {
-    if nodes.is_empty() {
+    let mut hit = false;
+    if let Some((first, count)) = tree.root_leaf {
+        counters.prim_tests += count as u64;
+        if let Some(t) = leaf_test(first, count, *t_max) {
+            *t_max = t;
+            hit = true;
+        }
+        return hit;
+    }
+    if tree.nodes.is_empty() {
         return false;
     }
-    let mut stack = [0u32; MAX_DEPTH];
-    let mut top = 0usize;
-    let mut index = 0usize;
-    let mut hit = false;
-    loop {
-        let node = &nodes[index];
-        counters.box_tests += 1;
-        if ray.hits(node, t_min, *t_max) {
-            if !node.is_leaf() {
-                // Visit the child on the ray's side of the split first.
-                let (near, far) = if ray.dir_negative[node.axis as usize] {
-                    (node.offset as usize, index + 1)
-                } else {
-                    (index + 1, node.offset as usize)
-                };
-                stack[top] = far as u32;
-                top += 1;
-                index = near;
-                continue;
-            }
-            let first = node.offset as usize;
-            for slot in first..first + node.count as usize {
-                counters.prim_tests += 1;
-                if let Some(t) = leaf_test(slot, *t_max) {
-                    *t_max = t;
-                    hit = true;
-                    if any {
-                        return true;
-                    }
+    let mut stack = [ChildHit::default(); STACK];
+    let mut top = 1usize; // stack[0] is the root (inner node 0)
+    let mut children = [ChildHit::default(); 4];
+    while top > 0 {
+        top -= 1;
+        let entry = stack[top];
+        if entry.t_near > *t_max {
+            continue;
+        }
+        if wide::is_leaf(entry.child) {
+            counters.prim_tests += entry.count as u64;
+            if let Some(t) = leaf_test(wide::leaf_first(entry.child), entry.count, *t_max) {
+                *t_max = t;
+                hit = true;
+                if any {
+                    return true;
                 }
             }
+            continue;
         }
-        if top == 0 {
-            return hit;
+        let node = &tree.nodes[entry.child as usize];
+        counters.box_tests += 4;
+        let n = Bvh4::hit_children(node, ray, t_min, *t_max, &mut children);
+        // Push farthest first so the nearest child is visited next
+        // (insertion sort: at most four entries).
+        for i in 0..n {
+            let c = children[i];
+            let mut j = top + i;
+            while j > top && stack[j - 1].t_near < c.t_near {
+                stack[j] = stack[j - 1];
+                j -= 1;
+            }
+            stack[j] = c;
         }
-        top -= 1;
-        index = stack[top] as usize;
+        top += n;
     }
+    hit
+}
+
+/// Triangle data in the layout of the chosen test.
+enum TriangleStore {
+    /// Möller–Trumbore: leaves point at runs of 4-wide SoA blocks; a
+    /// block's lanes are consecutive leaf slots starting at `first_slot`.
+    Blocks {
+        blocks: Vec<TriangleBlock4>,
+        first_slot: Vec<u32>,
+    },
+    /// Watertight: the corners per leaf slot, tested one at a time.
+    Corners(Vec<[Vec3; 3]>),
 }
 
 impl NativeBvh {
@@ -167,18 +173,36 @@ impl NativeBvh {
             })
             .collect();
         let triangles = build_bounded_depth(&tri_boxes, options);
-        let prepare = match options.triangle {
-            TriangleMode::MollerTrumbore => MollerTrumbore::prepare,
-            TriangleMode::Watertight => Watertight::prepare,
+        let mut triangles4 = Bvh4::from_binary(&triangles);
+        let corners = |slot: u32| mesh.corners(triangles.prim_order[slot as usize] as usize);
+        let triangle_store = match options.triangle {
+            TriangleMode::MollerTrumbore => {
+                let (mut blocks, mut first_slot) = (Vec::new(), Vec::new());
+                triangles4.remap_leaves(|first, count| {
+                    let block = blocks.len() as u32;
+                    for start in (first..first + count).step_by(4) {
+                        let lanes: Vec<[Vec3; 3]> = (start..(start + 4).min(first + count))
+                            .map(|slot| {
+                                let [a, b, c] = corners(slot);
+                                MollerTrumbore::prepare(a, b, c)
+                            })
+                            .collect();
+                        blocks.push(TriangleBlock4::pack(&lanes));
+                        first_slot.push(start);
+                    }
+                    block
+                });
+                TriangleStore::Blocks { blocks, first_slot }
+            }
+            TriangleMode::Watertight => TriangleStore::Corners(
+                (0..triangles.prim_order.len() as u32)
+                    .map(|slot| {
+                        let [a, b, c] = corners(slot);
+                        Watertight::prepare(a, b, c)
+                    })
+                    .collect(),
+            ),
         };
-        let triangle_data = triangles
-            .prim_order
-            .iter()
-            .map(|&i| {
-                let [a, b, c] = mesh.corners(i as usize);
-                prepare(a, b, c)
-            })
-            .collect();
         let sphere_boxes: Vec<Bounds> = scene
             .spheres
             .iter()
@@ -198,8 +222,10 @@ impl NativeBvh {
             .collect();
         NativeBvh {
             options: *options,
+            triangles4,
             triangles,
-            triangle_data,
+            triangle_store,
+            spheres4: Bvh4::from_binary(&spheres),
             spheres,
             sphere_data,
             triangle_count: mesh.len() as u32,
@@ -216,95 +242,156 @@ impl NativeBvh {
         &self.spheres
     }
 
-    fn closest<T: TriangleTest>(&self, ray: &Ray, counters: &mut TraceCounters) -> Option<Hit> {
-        let box_ray = BoxRay::new(ray);
-        let setup = RayTriangleSetup::new(ray);
-        let mut t_max = ray.t_max;
-        let mut best: Option<(usize, f32, f32)> = None;
-        traverse(
-            &self.triangles.nodes,
-            &box_ray,
-            ray.t_min,
-            &mut t_max,
-            false,
-            counters,
-            |slot, t_max| {
-                let (t, u, v) = T::intersect(&self.triangle_data[slot], &setup, ray.t_min, t_max)?;
-                best = Some((slot, u, v));
-                Some(t)
-            },
-        );
-        let mut best_sphere = None;
-        if !self.spheres.is_empty() {
-            traverse(
-                &self.spheres.nodes,
-                &box_ray,
-                ray.t_min,
-                &mut t_max,
-                false,
-                counters,
-                |slot, t_max| {
-                    let (c, r) = self.sphere_data[slot];
-                    let t = sphere::intersect_sphere(c, r, ray, ray.t_min, t_max)?;
-                    best_sphere = Some(slot);
-                    Some(t)
-                },
-            );
+    /// Nearest triangle hit: (leaf slot, u, v, unit normal), shrinking
+    /// `t_max` to its distance.
+    fn closest_triangle(
+        &self,
+        ray: &Ray,
+        box_ray: &BoxRay4,
+        t_max: &mut f32,
+        counters: &mut TraceCounters,
+    ) -> Option<(u32, f32, f32, Vec3)> {
+        let t_min = ray.t_min;
+        let mut best = None;
+        match &self.triangle_store {
+            TriangleStore::Blocks { blocks, first_slot } => {
+                traverse(
+                    &self.triangles4,
+                    box_ray,
+                    t_min,
+                    t_max,
+                    false,
+                    counters,
+                    |first, count, mut t_max| {
+                        let mut found = None;
+                        for (k, block) in blocks[first as usize..]
+                            .iter()
+                            .take(count.div_ceil(4) as usize)
+                            .enumerate()
+                        {
+                            let lanes = (count as usize - 4 * k).min(4);
+                            if let Some((lane, t, u, v)) = block.intersect(lanes, ray, t_min, t_max)
+                            {
+                                t_max = t;
+                                found = Some(t);
+                                let [_, e1, e2] = block.lane(lane);
+                                best = Some((
+                                    first_slot[first as usize + k] + lane as u32,
+                                    u,
+                                    v,
+                                    e1.cross(e2),
+                                ));
+                            }
+                        }
+                        found
+                    },
+                );
+            }
+            TriangleStore::Corners(corners) => {
+                let setup = Watertight::setup(ray);
+                traverse(
+                    &self.triangles4,
+                    box_ray,
+                    t_min,
+                    t_max,
+                    false,
+                    counters,
+                    |first, count, mut t_max| {
+                        let mut found = None;
+                        for slot in first..first + count {
+                            let tri = &corners[slot as usize];
+                            if let Some((t, u, v)) =
+                                Watertight::intersect(tri, &setup, t_min, t_max)
+                            {
+                                t_max = t;
+                                found = Some(t);
+                                best = Some((slot, u, v, (tri[1] - tri[0]).cross(tri[2] - tri[0])));
+                            }
+                        }
+                        found
+                    },
+                );
+            }
         }
-        if let Some(slot) = best_sphere {
-            let (c, _) = self.sphere_data[slot];
-            let prim = self.triangle_count + self.spheres.prim_order[slot];
-            return Some(Hit {
-                t: t_max,
-                prim,
-                u: 0.0,
-                v: 0.0,
-                normal: (ray.at(t_max) - c).normalize_or_zero(),
-            });
-        }
-        let (slot, u, v) = best?;
-        let [a, b, c] = self.triangle_data[slot];
-        let normal = match self.options.triangle {
-            TriangleMode::MollerTrumbore => b.cross(c),
-            TriangleMode::Watertight => (b - a).cross(c - a),
-        }
-        .normalize_or_zero();
-        Some(Hit {
-            t: t_max,
-            prim: self.triangles.prim_order[slot],
-            u,
-            v,
-            normal,
-        })
+        best.map(|(slot, u, v, n)| (slot, u, v, n.normalize_or_zero()))
     }
 
-    fn any<T: TriangleTest>(&self, ray: &Ray, counters: &mut TraceCounters) -> bool {
-        let box_ray = BoxRay::new(ray);
-        let setup = RayTriangleSetup::new(ray);
-        let mut t_max = ray.t_max;
-        let tri = traverse(
-            &self.triangles.nodes,
-            &box_ray,
+    fn any_triangle(&self, ray: &Ray, box_ray: &BoxRay4, counters: &mut TraceCounters) -> bool {
+        let (t_min, mut t_max) = (ray.t_min, ray.t_max);
+        match &self.triangle_store {
+            TriangleStore::Blocks { blocks, .. } => traverse(
+                &self.triangles4,
+                box_ray,
+                t_min,
+                &mut t_max,
+                true,
+                counters,
+                |first, count, t_max| {
+                    blocks[first as usize..]
+                        .iter()
+                        .take(count.div_ceil(4) as usize)
+                        .enumerate()
+                        .find_map(|(k, block)| {
+                            block.intersect((count as usize - 4 * k).min(4), ray, t_min, t_max)
+                        })
+                        .map(|h| h.1)
+                },
+            ),
+            TriangleStore::Corners(corners) => {
+                let setup = Watertight::setup(ray);
+                traverse(
+                    &self.triangles4,
+                    box_ray,
+                    t_min,
+                    &mut t_max,
+                    true,
+                    counters,
+                    |first, count, t_max| {
+                        (first..first + count)
+                            .find_map(|slot| {
+                                Watertight::intersect(&corners[slot as usize], &setup, t_min, t_max)
+                            })
+                            .map(|h| h.0)
+                    },
+                )
+            }
+        }
+    }
+
+    /// Nearest sphere hit in `[t_min, t_max]`: its leaf slot.
+    fn sphere_hit(
+        &self,
+        ray: &Ray,
+        box_ray: &BoxRay4,
+        t_max: &mut f32,
+        any: bool,
+        counters: &mut TraceCounters,
+    ) -> Option<u32> {
+        let mut best = None;
+        if self.spheres.is_empty() {
+            return None;
+        }
+        traverse(
+            &self.spheres4,
+            box_ray,
             ray.t_min,
-            &mut t_max,
-            true,
+            t_max,
+            any,
             counters,
-            |slot, t_max| {
-                T::intersect(&self.triangle_data[slot], &setup, ray.t_min, t_max).map(|h| h.0)
+            |first, count, mut t_max| {
+                let mut found = None;
+                for slot in first..first + count {
+                    let (c, r) = self.sphere_data[slot as usize];
+                    if let Some(t) = sphere::intersect_sphere(c, r, ray, ray.t_min, t_max) {
+                        t_max = t;
+                        found = Some(t);
+                        best = Some(slot);
+                    }
+                }
+                found
             },
         );
-        tri || traverse(
-            &self.spheres.nodes,
-            &box_ray,
-            ray.t_min,
-            &mut t_max,
-            true,
-            counters,
-            |slot, t_max| {
-                let (c, r) = self.sphere_data[slot];
-                sphere::intersect_sphere(c, r, ray, ray.t_min, t_max)
-            },
-        )
+        best
     }
 }
 
@@ -322,10 +409,28 @@ impl Accel for NativeBvh {
         if !ray.is_traceable() {
             return None;
         }
-        match self.options.triangle {
-            TriangleMode::MollerTrumbore => self.closest::<MollerTrumbore>(ray, counters),
-            TriangleMode::Watertight => self.closest::<Watertight>(ray, counters),
+        let box_ray = BoxRay4::new(ray.origin, safe_inverse(ray.dir));
+        let mut t_max = ray.t_max;
+        let triangle = self.closest_triangle(ray, &box_ray, &mut t_max, counters);
+        if let Some(slot) = self.sphere_hit(ray, &box_ray, &mut t_max, false, counters) {
+            let (c, _) = self.sphere_data[slot as usize];
+            let prim = self.triangle_count + self.spheres.prim_order[slot as usize];
+            return Some(Hit {
+                t: t_max,
+                prim,
+                u: 0.0,
+                v: 0.0,
+                normal: (ray.at(t_max) - c).normalize_or_zero(),
+            });
         }
+        let (slot, u, v, normal) = triangle?;
+        Some(Hit {
+            t: t_max,
+            prim: self.triangles.prim_order[slot as usize],
+            u,
+            v,
+            normal,
+        })
     }
 
     fn occluded(&self, ray: &Ray, counters: &mut TraceCounters) -> bool {
@@ -333,10 +438,11 @@ impl Accel for NativeBvh {
         if !ray.is_traceable() {
             return false;
         }
-        match self.options.triangle {
-            TriangleMode::MollerTrumbore => self.any::<MollerTrumbore>(ray, counters),
-            TriangleMode::Watertight => self.any::<Watertight>(ray, counters),
-        }
+        let box_ray = BoxRay4::new(ray.origin, safe_inverse(ray.dir));
+        self.any_triangle(ray, &box_ray, counters)
+            || self
+                .sphere_hit(ray, &box_ray, &mut ray.t_max.clone(), true, counters)
+                .is_some()
     }
 
     fn stats(&self) -> AccelStats {
@@ -347,7 +453,14 @@ impl Accel for NativeBvh {
             build_ms: self.build_ms,
             memory_bytes: t.memory_bytes()
                 + s.memory_bytes()
-                + self.triangle_data.len() * std::mem::size_of::<[Vec3; 3]>()
+                + self.triangles4.memory_bytes()
+                + self.spheres4.memory_bytes()
+                + match &self.triangle_store {
+                    TriangleStore::Blocks { blocks, first_slot } => {
+                        blocks.len() * std::mem::size_of::<TriangleBlock4>() + first_slot.len() * 4
+                    }
+                    TriangleStore::Corners(c) => c.len() * std::mem::size_of::<[Vec3; 3]>(),
+                }
                 + self.sphere_data.len() * std::mem::size_of::<(Vec3, f32)>(),
             nodes: t.nodes.len() + s.nodes.len(),
             leaves: t.leaf_count() + s.leaf_count(),

@@ -17,19 +17,19 @@ use glam::Vec3;
 
 use crate::accel::Ray;
 
-/// Per-ray data precomputed once for all triangle tests.
+/// Per-ray data of the watertight test, computed once per ray.
 #[derive(Clone, Copy, Debug)]
-pub struct RayTriangleSetup {
+pub struct ShearedRay {
     pub origin: Vec3,
     pub dir: Vec3,
-    /// Watertight: the dominant axis and the two others, and the shear.
+    /// The dominant axis, the two others, and the shear.
     kx: usize,
     ky: usize,
     kz: usize,
     shear: Vec3,
 }
 
-impl RayTriangleSetup {
+impl ShearedRay {
     pub fn new(ray: &Ray) -> Self {
         let d = ray.dir;
         let a = d.abs();
@@ -47,7 +47,7 @@ impl RayTriangleSetup {
             std::mem::swap(&mut kx, &mut ky);
         }
         let shear = Vec3::new(d[kx] / d[kz], d[ky] / d[kz], 1.0 / d[kz]);
-        RayTriangleSetup {
+        ShearedRay {
             origin: ray.origin,
             dir: d,
             kx,
@@ -61,12 +61,15 @@ impl RayTriangleSetup {
 /// A ray/triangle test over the triangle data it stores per primitive.
 pub trait TriangleTest: Send + Sync + 'static {
     const NAME: &'static str;
+    /// What the test precomputes per ray.
+    type Setup: Copy;
+    fn setup(ray: &Ray) -> Self::Setup;
     /// Precomputes what the test keeps for a triangle with these corners.
     fn prepare(v0: Vec3, v1: Vec3, v2: Vec3) -> [Vec3; 3];
     /// `(t, u, v)` of a hit with `t` in `[t_min, t_max]`.
     fn intersect(
         tri: &[Vec3; 3],
-        ray: &RayTriangleSetup,
+        ray: &Self::Setup,
         t_min: f32,
         t_max: f32,
     ) -> Option<(f32, f32, f32)>;
@@ -80,6 +83,11 @@ pub struct MollerTrumbore;
 
 impl TriangleTest for MollerTrumbore {
     const NAME: &'static str = "moller-trumbore";
+    type Setup = Ray;
+
+    fn setup(ray: &Ray) -> Ray {
+        *ray
+    }
 
     /// Stores `v0, e1 = v1 - v0, e2 = v2 - v0`.
     fn prepare(v0: Vec3, v1: Vec3, v2: Vec3) -> [Vec3; 3] {
@@ -87,12 +95,7 @@ impl TriangleTest for MollerTrumbore {
     }
 
     #[inline(always)]
-    fn intersect(
-        tri: &[Vec3; 3],
-        ray: &RayTriangleSetup,
-        t_min: f32,
-        t_max: f32,
-    ) -> Option<(f32, f32, f32)> {
+    fn intersect(tri: &[Vec3; 3], ray: &Ray, t_min: f32, t_max: f32) -> Option<(f32, f32, f32)> {
         let [v0, e1, e2] = *tri;
         let p = ray.dir.cross(e2);
         let det = e1.dot(p);
@@ -122,6 +125,11 @@ pub struct Watertight;
 
 impl TriangleTest for Watertight {
     const NAME: &'static str = "watertight";
+    type Setup = ShearedRay;
+
+    fn setup(ray: &Ray) -> ShearedRay {
+        ShearedRay::new(ray)
+    }
 
     /// Stores the corners.
     fn prepare(v0: Vec3, v1: Vec3, v2: Vec3) -> [Vec3; 3] {
@@ -131,7 +139,7 @@ impl TriangleTest for Watertight {
     #[inline(always)]
     fn intersect(
         tri: &[Vec3; 3],
-        ray: &RayTriangleSetup,
+        ray: &ShearedRay,
         t_min: f32,
         t_max: f32,
     ) -> Option<(f32, f32, f32)> {
@@ -173,6 +181,157 @@ impl TriangleTest for Watertight {
     }
 }
 
+/// Four Möller–Trumbore triangles in structure-of-arrays form (`v0`,
+/// `e1`, `e2`, each as x, y, z lanes), tested against one ray at once.
+/// Unused lanes hold a degenerate triangle that the determinant test
+/// rejects.
+#[derive(Clone, Copy, Debug)]
+#[repr(C, align(16))]
+pub struct TriangleBlock4 {
+    pub v: [[[f32; 4]; 3]; 3],
+}
+
+impl TriangleBlock4 {
+    /// Packs up to four triangles given as `[v0, e1, e2]`.
+    pub fn pack(tris: &[[Vec3; 3]]) -> TriangleBlock4 {
+        let mut v = [[[0.0f32; 4]; 3]; 3];
+        for (lane, tri) in tris.iter().take(4).enumerate() {
+            for (k, p) in tri.iter().enumerate() {
+                v[k][0][lane] = p.x;
+                v[k][1][lane] = p.y;
+                v[k][2][lane] = p.z;
+            }
+        }
+        TriangleBlock4 { v }
+    }
+
+    /// Lane `i` as `[v0, e1, e2]`.
+    pub fn lane(&self, i: usize) -> [Vec3; 3] {
+        [0, 1, 2].map(|k| Vec3::new(self.v[k][0][i], self.v[k][1][i], self.v[k][2][i]))
+    }
+
+    /// The nearest hit among the first `count` lanes: `(lane, t, u, v)`.
+    /// Same arithmetic, in the same order, as [`MollerTrumbore::intersect`],
+    /// so both give bit-identical answers.
+    #[inline(always)]
+    pub fn intersect(
+        &self,
+        count: usize,
+        ray: &Ray,
+        t_min: f32,
+        t_max: f32,
+    ) -> Option<(usize, f32, f32, f32)> {
+        #[cfg(target_arch = "x86_64")]
+        {
+            // SAFETY: SSE/SSE2 are part of the x86_64 baseline; loads read
+            // 16-byte lanes of an aligned block.
+            unsafe { self.intersect_sse(count, ray, t_min, t_max) }
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        {
+            self.intersect_scalar(count, ray, t_min, t_max)
+        }
+    }
+
+    #[cfg_attr(target_arch = "x86_64", allow(dead_code))]
+    fn intersect_scalar(
+        &self,
+        count: usize,
+        ray: &Ray,
+        t_min: f32,
+        mut t_max: f32,
+    ) -> Option<(usize, f32, f32, f32)> {
+        let mut best = None;
+        for i in 0..count.min(4) {
+            if let Some((t, u, v)) = MollerTrumbore::intersect(&self.lane(i), ray, t_min, t_max) {
+                t_max = t;
+                best = Some((i, t, u, v));
+            }
+        }
+        best
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    unsafe fn intersect_sse(
+        &self,
+        count: usize,
+        ray: &Ray,
+        t_min: f32,
+        t_max: f32,
+    ) -> Option<(usize, f32, f32, f32)> {
+        use std::arch::x86_64::*;
+        let load = |k: usize, axis: usize| _mm_load_ps(self.v[k][axis].as_ptr());
+        let (v0x, v0y, v0z) = (load(0, 0), load(0, 1), load(0, 2));
+        let (e1x, e1y, e1z) = (load(1, 0), load(1, 1), load(1, 2));
+        let (e2x, e2y, e2z) = (load(2, 0), load(2, 1), load(2, 2));
+        let (dx, dy, dz) = (
+            _mm_set1_ps(ray.dir.x),
+            _mm_set1_ps(ray.dir.y),
+            _mm_set1_ps(ray.dir.z),
+        );
+        let (mul, sub, add) = (
+            |a, b| _mm_mul_ps(a, b),
+            |a, b| _mm_sub_ps(a, b),
+            |a, b| _mm_add_ps(a, b),
+        );
+        // p = dir x e2 (glam's operand order)
+        let px = sub(mul(dy, e2z), mul(e2y, dz));
+        let py = sub(mul(dz, e2x), mul(e2z, dx));
+        let pz = sub(mul(dx, e2y), mul(e2x, dy));
+        let det = add(add(mul(e1x, px), mul(e1y, py)), mul(e1z, pz));
+        let abs = _mm_andnot_ps(_mm_set1_ps(-0.0), det);
+        let mut valid = _mm_cmpge_ps(abs, _mm_set1_ps(PARALLEL_DETERMINANT));
+        let inv = _mm_div_ps(_mm_set1_ps(1.0), det);
+        let sx = sub(_mm_set1_ps(ray.origin.x), v0x);
+        let sy = sub(_mm_set1_ps(ray.origin.y), v0y);
+        let sz = sub(_mm_set1_ps(ray.origin.z), v0z);
+        let u = mul(add(add(mul(sx, px), mul(sy, py)), mul(sz, pz)), inv);
+        let (zero, one) = (_mm_setzero_ps(), _mm_set1_ps(1.0));
+        valid = _mm_and_ps(
+            valid,
+            _mm_and_ps(_mm_cmpge_ps(u, zero), _mm_cmple_ps(u, one)),
+        );
+        // q = s x e1
+        let qx = sub(mul(sy, e1z), mul(e1y, sz));
+        let qy = sub(mul(sz, e1x), mul(e1z, sx));
+        let qz = sub(mul(sx, e1y), mul(e1x, sy));
+        let v = mul(add(add(mul(dx, qx), mul(dy, qy)), mul(dz, qz)), inv);
+        valid = _mm_and_ps(
+            valid,
+            _mm_and_ps(_mm_cmpge_ps(v, zero), _mm_cmple_ps(add(u, v), one)),
+        );
+        let t = mul(add(add(mul(e2x, qx), mul(e2y, qy)), mul(e2z, qz)), inv);
+        valid = _mm_and_ps(
+            valid,
+            _mm_and_ps(
+                _mm_cmpge_ps(t, _mm_set1_ps(t_min)),
+                _mm_cmple_ps(t, _mm_set1_ps(t_max)),
+            ),
+        );
+        let mut mask = _mm_movemask_ps(valid) as u32 & ((1u32 << count.min(4)) - 1);
+        if mask == 0 {
+            return None;
+        }
+        let (mut ts, mut us, mut vs) = ([0.0f32; 4], [0.0f32; 4], [0.0f32; 4]);
+        _mm_storeu_ps(ts.as_mut_ptr(), t);
+        _mm_storeu_ps(us.as_mut_ptr(), u);
+        _mm_storeu_ps(vs.as_mut_ptr(), v);
+        // The nearest valid lane; on equal t the later lane, as the scalar
+        // loop (which accepts t == t_max) does.
+        let mut best = mask.trailing_zeros() as usize;
+        mask &= mask - 1;
+        while mask != 0 {
+            let i = mask.trailing_zeros() as usize;
+            if ts[i] <= ts[best] {
+                best = i;
+            }
+            mask &= mask - 1;
+        }
+        Some((best, ts[best], us[best], vs[best]))
+    }
+}
+
 /// Which triangle test the native backend runs.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default, clap::ValueEnum)]
 pub enum TriangleMode {
@@ -187,7 +346,7 @@ mod tests {
 
     fn hit<T: TriangleTest>(v: [Vec3; 3], ray: Ray) -> Option<(f32, f32, f32)> {
         let tri = T::prepare(v[0], v[1], v[2]);
-        T::intersect(&tri, &RayTriangleSetup::new(&ray), ray.t_min, ray.t_max)
+        T::intersect(&tri, &T::setup(&ray), ray.t_min, ray.t_max)
     }
 
     #[test]
@@ -213,6 +372,48 @@ mod tests {
                 "got {x}, expected {y} (MT {a:?}, WT {b:?})"
             );
         }
+    }
+
+    #[test]
+    fn four_wide_block_matches_the_scalar_test_bit_for_bit() {
+        let mut state = 5u64;
+        let mut next = || {
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            ((state >> 40) as f32) / (1u64 << 24) as f32 * 2.0 - 1.0
+        };
+        let mut hits = 0;
+        for _ in 0..20_000 {
+            let tris: Vec<[Vec3; 3]> = (0..4)
+                .map(|_| {
+                    let a = Vec3::new(next(), next(), next());
+                    MollerTrumbore::prepare(
+                        a,
+                        a + Vec3::new(next(), next(), next()) * 0.5,
+                        a + Vec3::new(next(), next(), next()) * 0.5,
+                    )
+                })
+                .collect();
+            let block = TriangleBlock4::pack(&tris);
+            // Aim near a random lane's centroid so that many rays hit.
+            let [v0, e1, e2] = tris[(next().abs() * 3.99) as usize];
+            let target = v0 + (e1 + e2) / 3.0 + Vec3::new(next(), next(), next()) * 0.1;
+            let origin = Vec3::new(next(), next(), next()) * 2.0;
+            let ray = Ray::new(origin, (target - origin).normalize());
+            let count = 1 + (next().abs() * 3.99) as usize;
+            let simd = block.intersect(count, &ray, 0.0, f32::INFINITY);
+            let scalar = block.intersect_scalar(count, &ray, 0.0, f32::INFINITY);
+            assert_eq!(
+                simd.map(|h| (h.0, h.1.to_bits(), h.2.to_bits(), h.3.to_bits())),
+                scalar.map(|h| (h.0, h.1.to_bits(), h.2.to_bits(), h.3.to_bits()))
+            );
+            hits += simd.is_some() as usize;
+        }
+        assert!(
+            hits > 1000,
+            "only {hits} hits: the test rays miss too often to mean anything"
+        );
     }
 
     #[test]
