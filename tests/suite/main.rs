@@ -11,3 +11,4 @@ mod embree_backend;
 mod integrators;
 mod loader;
 mod parity;
+mod report;

@@ -317,24 +317,17 @@ impl<'b> SceneBuilder<'b> {
         let geometry =
             Geometry(unsafe { raw::rtcNewGeometry(device.raw, raw::RTC_GEOMETRY_TYPE_TRIANGLE) });
         device.check()?;
-        // SAFETY: Embree allocates `vertices.len()` padded FLOAT3 elements
-        // and we fill exactly that many; the shared index slice is 4-byte
-        // aligned, holds `indices.len()` UINT3 triples and outlives the
-        // scene ('b), and every index was checked against the vertex count.
+        fill_new_buffer(
+            device,
+            &geometry,
+            raw::RTC_BUFFER_TYPE_VERTEX,
+            raw::RTC_FORMAT_FLOAT3,
+            vertices,
+        )?;
+        // SAFETY: the shared index slice is 4-byte aligned, holds
+        // `indices.len()` UINT3 triples, outlives the scene ('b), and every
+        // index was checked against the vertex count.
         unsafe {
-            let buffer = raw::rtcSetNewGeometryBuffer(
-                geometry.0,
-                raw::RTC_BUFFER_TYPE_VERTEX,
-                0,
-                raw::RTC_FORMAT_FLOAT3,
-                12,
-                vertices.len(),
-            ) as *mut [f32; 3];
-            device.check()?;
-            if buffer.is_null() {
-                return Err("rtcSetNewGeometryBuffer returned null".into());
-            }
-            std::ptr::copy_nonoverlapping(vertices.as_ptr(), buffer, vertices.len());
             raw::rtcSetSharedGeometryBuffer(
                 geometry.0,
                 raw::RTC_BUFFER_TYPE_INDEX,
@@ -358,23 +351,13 @@ impl<'b> SceneBuilder<'b> {
             raw::rtcNewGeometry(device.raw, raw::RTC_GEOMETRY_TYPE_SPHERE_POINT)
         });
         device.check()?;
-        // SAFETY: Embree allocates `len` FLOAT4 elements (with its own
-        // padding) and returns a pointer we fill before commit.
-        unsafe {
-            let buffer = raw::rtcSetNewGeometryBuffer(
-                geometry.0,
-                raw::RTC_BUFFER_TYPE_VERTEX,
-                0,
-                raw::RTC_FORMAT_FLOAT4,
-                16,
-                spheres.len(),
-            ) as *mut [f32; 4];
-            device.check()?;
-            if buffer.is_null() {
-                return Err("rtcSetNewGeometryBuffer returned null".into());
-            }
-            std::ptr::copy_nonoverlapping(spheres.as_ptr(), buffer, spheres.len());
-        }
+        fill_new_buffer(
+            device,
+            &geometry,
+            raw::RTC_BUFFER_TYPE_VERTEX,
+            raw::RTC_FORMAT_FLOAT4,
+            spheres,
+        )?;
         self.attach(device, geometry)
     }
 
@@ -390,6 +373,37 @@ impl<'b> SceneBuilder<'b> {
             _buffers: PhantomData,
         })
     }
+}
+
+/// Creates a geometry buffer that Embree allocates (with the padding its
+/// loads need) and copies `data` into it: one element of `T` per item, `T`
+/// laid out as `format` (`[f32; 3]` as FLOAT3, `[f32; 4]` as FLOAT4).
+fn fill_new_buffer<T: Copy>(
+    device: &Device,
+    geometry: &Geometry,
+    kind: raw::RTCBufferType,
+    format: raw::RTCFormat,
+    data: &[T],
+) -> Result<(), String> {
+    // SAFETY: Embree allocates `data.len()` elements of `size_of::<T>()`
+    // bytes and returns a pointer to them (or null, checked), which we fill
+    // with exactly that many elements before the geometry is committed.
+    unsafe {
+        let buffer = raw::rtcSetNewGeometryBuffer(
+            geometry.0,
+            kind,
+            0,
+            format,
+            std::mem::size_of::<T>(),
+            data.len(),
+        ) as *mut T;
+        device.check()?;
+        if buffer.is_null() {
+            return Err("rtcSetNewGeometryBuffer returned null".into());
+        }
+        std::ptr::copy_nonoverlapping(data.as_ptr(), buffer, data.len());
+    }
+    Ok(())
 }
 
 /// A hit as Embree reports it.

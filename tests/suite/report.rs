@@ -1,0 +1,90 @@
+//! The comparison report, quick mode: every section filled from real
+//! measurements, `report.json` with the headline fields.
+
+use hybrid::report::{run, ReportOptions};
+
+use crate::common;
+
+#[test]
+fn quick_report_writes_every_section_and_the_headline_figures() {
+    let Some(scenes_dir) = common::scenes_dir() else {
+        return;
+    };
+    let out = common::scratch("report");
+    let options = ReportOptions {
+        scenes_dir,
+        out_dir: out.clone(),
+        quick: true,
+        threads: 2,
+    };
+    run(&options, &mut |line| println!("{line}")).expect("the report runs");
+
+    let md = std::fs::read_to_string(out.join("report.md")).expect("report.md");
+    for section in [
+        "## Build and trace, per scene",
+        "## With and without acceleration",
+        "## Speed against error",
+        "## How cost grows with scene size",
+        "## Gallery",
+    ] {
+        assert!(md.contains(section), "report.md lacks '{section}'");
+    }
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).unwrap())
+            .expect("valid JSON");
+    let scenes = json["scenes"].as_array().expect("scenes");
+    assert_eq!(scenes.len(), 3);
+    let positive = |v: &serde_json::Value, what: &str| {
+        let x = v.as_f64().unwrap_or_else(|| panic!("{what} missing"));
+        assert!(x.is_finite() && x > 0.0, "{what} = {x}");
+        x
+    };
+    for s in scenes {
+        let name = s["scene"].as_str().unwrap();
+        positive(&s["native_build_ms"], &format!("{name} native_build_ms"));
+        positive(&s["embree_build_ms"], &format!("{name} embree_build_ms"));
+        for kind in ["camera", "shadow", "bounce"] {
+            let r = &s["rays"][kind];
+            let n = positive(&r["native_mrays"], &format!("{name} {kind} native_mrays"));
+            let e = positive(&r["embree_mrays"], &format!("{name} {kind} embree_mrays"));
+            let ratio = positive(&r["ratio"], &format!("{name} {kind} ratio"));
+            assert!(
+                (ratio - n / e).abs() < 1e-9 * ratio.max(1.0),
+                "{name} {kind}: ratio {ratio} != {n}/{e}"
+            );
+        }
+    }
+    let rows = json["scaling"]["rows"].as_array().unwrap();
+    assert!(
+        rows.last().unwrap()["triangles"].as_f64().unwrap() >= 1e6 * 0.99,
+        "scaling stops below 10^6 triangles"
+    );
+    for file in [
+        "speed_vs_error.svg",
+        "scaling_build.svg",
+        "scaling_trace.svg",
+    ] {
+        let svg =
+            std::fs::read_to_string(out.join(file)).unwrap_or_else(|_| panic!("{file} missing"));
+        assert!(
+            svg.contains("<svg") && svg.contains("polyline"),
+            "{file} has no lines"
+        );
+    }
+    for file in [
+        "gallery_normals.png",
+        "gallery_light_samples.png",
+        "gallery_bounces.png",
+        "gallery_russian_roulette.png",
+        "gallery_samples.png",
+        "gallery_adaptive.png",
+    ] {
+        let img = image::open(out.join(file)).unwrap_or_else(|e| panic!("{file}: {e}"));
+        assert!(
+            img.width() > 100 && img.height() > 50,
+            "{file} is {}x{}",
+            img.width(),
+            img.height()
+        );
+    }
+}
