@@ -18,14 +18,25 @@ pub fn uniform_sphere(u: f32, v: f32) -> Vec3 {
     Vec3::new(r * phi.cos(), r * phi.sin(), z)
 }
 
-/// Camera rays at random positions over a `width x height` image.
+/// Camera rays in the order a renderer sends them: 8x8-pixel tiles of a
+/// 4:3 image of about `n` pixels, one jittered ray per pixel.
 pub fn camera_rays(scene: &Scene, n: usize, seed: u64) -> Vec<Ray> {
-    let (w, h) = (320u32, 240u32);
+    let h = (((n as f64) * 3.0 / 4.0).sqrt().ceil() as u32).max(1);
+    let w = ((n as u32).div_ceil(h)).max(1);
     let camera = Camera::new(scene, CameraMode::Canonical, w, h);
     let mut rng = Rng::new(seed, 1);
-    (0..n)
-        .map(|_| camera.ray(rng.next_f32() * w as f32, rng.next_f32() * h as f32))
-        .collect()
+    let mut rays = Vec::with_capacity(n);
+    for ty in (0..h).step_by(8) {
+        for tx in (0..w).step_by(8) {
+            for y in ty..(ty + 8).min(h) {
+                for x in tx..(tx + 8).min(w) {
+                    rays.push(camera.ray(x as f32 + rng.next_f32(), y as f32 + rng.next_f32()));
+                }
+            }
+        }
+    }
+    rays.truncate(n);
+    rays
 }
 
 /// Rays from random points inside the scene's bounds (grown by 10% of the

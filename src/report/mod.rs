@@ -355,6 +355,22 @@ fn scene_section(
             json!({"rays": set.len(), "native_mrays": n1, "embree_mrays": e1, "ratio": n1 / e1, "native_mrays_all_threads": na, "embree_mrays_all_threads": ea, "ratio_all_threads": na / ea}),
         );
     }
+    // Embree's stream call on the same camera rays, one thread.
+    let camera = &sets[0].2;
+    let mut answers = Vec::with_capacity(camera.len());
+    let stream = time_repeats(budget.repeats, || embree.closest_hits(camera, &mut answers));
+    let stream_mrays = camera.len() as f64 / stream.median / 1e6;
+    let single_mrays = ray_json["camera"]["embree_mrays"]
+        .as_f64()
+        .unwrap_or(f64::NAN);
+    md += &format!(
+        "\nEmbree ray stream (`rtcIntersect1M`, coherent flag) on the same camera rays, 1 thread: {stream_mrays:.2} Mrays/s against {single_mrays:.2} with single-ray calls ({:.2}x).\n",
+        stream_mrays / single_mrays
+    );
+    ray_json.insert(
+        "camera_stream".into(),
+        json!({"embree_stream_mrays": stream_mrays, "embree_single_mrays": single_mrays}),
+    );
     let (w, h, spp) = budget.frame;
     let settings = RenderSettings {
         width: w,

@@ -437,9 +437,14 @@ fn make_ray(origin: [f32; 3], dir: [f32; 3], t_min: f32, t_max: f32) -> raw::RTC
 
 #[cfg(embree_major = "3")]
 fn context() -> raw::RTCIntersectContext {
+    context_with(raw::RTC_INTERSECT_CONTEXT_FLAG_INCOHERENT)
+}
+
+#[cfg(embree_major = "3")]
+fn context_with(flags: raw::RTCIntersectContextFlags) -> raw::RTCIntersectContext {
     // What the inline rtcInitIntersectContext of rtcore_ray.h does.
     raw::RTCIntersectContext {
-        flags: raw::RTC_INTERSECT_CONTEXT_FLAG_INCOHERENT,
+        flags,
         filter: None,
         instID: [INVALID_GEOMETRY_ID; 1],
     }
@@ -481,6 +486,58 @@ impl Scene<'_> {
             v: rayhit.hit.v,
             ng: [rayhit.hit.Ng_x, rayhit.hit.Ng_y, rayhit.hit.Ng_z],
         })
+    }
+
+    /// Closest hits of many rays at once: one `rtcIntersect1M` stream call
+    /// with the coherent flag on Embree 3 (streams were removed in Embree 4,
+    /// where this is a loop of `rtcIntersect1`). `rays` are
+    /// `(origin, dir, t_min, t_max)`; `out` receives one answer per ray.
+    pub fn intersect_stream(
+        &self,
+        rays: &[([f32; 3], [f32; 3], f32, f32)],
+        out: &mut Vec<Option<RawHit>>,
+    ) {
+        out.clear();
+        let mut batch: Vec<raw::RTCRayHit> = rays
+            .iter()
+            .map(|&(o, d, t0, t1)| raw::RTCRayHit {
+                ray: make_ray(o, d, t0, t1),
+                hit: raw::RTCHit {
+                    geomID: INVALID_GEOMETRY_ID,
+                    primID: INVALID_GEOMETRY_ID,
+                    ..Default::default()
+                },
+            })
+            .collect();
+        #[cfg(embree_major = "3")]
+        // SAFETY: `batch` holds `batch.len()` initialized, 16-byte aligned
+        // RTCRayHit structs laid out with the stride given; the scene is
+        // committed.
+        unsafe {
+            let mut ctx = context_with(raw::RTC_INTERSECT_CONTEXT_FLAG_COHERENT);
+            raw::rtcIntersect1M(
+                self.raw,
+                &mut ctx,
+                batch.as_mut_ptr(),
+                batch.len() as u32,
+                std::mem::size_of::<raw::RTCRayHit>(),
+            );
+        }
+        #[cfg(embree_major = "4")]
+        for rayhit in batch.iter_mut() {
+            // SAFETY: as in `intersect`.
+            unsafe { raw::rtcIntersect1(self.raw, rayhit, std::ptr::null_mut()) };
+        }
+        out.extend(batch.iter().map(|rh| {
+            (rh.hit.geomID != INVALID_GEOMETRY_ID).then(|| RawHit {
+                t: rh.ray.tfar,
+                geometry: rh.hit.geomID,
+                primitive: rh.hit.primID,
+                u: rh.hit.u,
+                v: rh.hit.v,
+                ng: [rh.hit.Ng_x, rh.hit.Ng_y, rh.hit.Ng_z],
+            })
+        }));
     }
 
     /// Whether anything lies on the segment (`rtcOccluded1`).

@@ -51,8 +51,8 @@ pub(crate) const BOX_FAR_SCALE: f32 =
 
 pub struct NativeBvh {
     options: NativeOptions,
-    /// The binary SAH tree (statistics, invariants) and the 4-wide tree
-    /// traversed.
+    /// The binary SAH trees keep only their leaf order (slot -> primitive)
+    /// once the 4-wide trees are made; their shape is kept in `shape`.
     triangles: Bvh,
     triangles4: Bvh4,
     triangle_store: TriangleStore,
@@ -62,6 +62,16 @@ pub struct NativeBvh {
     sphere_data: Vec<(Vec3, f32)>,
     triangle_count: u32,
     build_ms: f64,
+    shape: TreeShape,
+}
+
+/// Node count, leaves, depth and SAH cost of the binary trees as built.
+#[derive(Clone, Copy, Debug)]
+struct TreeShape {
+    nodes: usize,
+    leaves: usize,
+    depth: usize,
+    sah_cost: f64,
 }
 
 /// Reciprocal direction with zero components replaced by a huge finite
@@ -212,6 +222,17 @@ impl NativeBvh {
             })
             .collect();
         let spheres = build_bounded_depth(&sphere_boxes, options);
+        let shape = TreeShape {
+            nodes: triangles.nodes.len() + spheres.nodes.len(),
+            leaves: triangles.leaf_count() + spheres.leaf_count(),
+            depth: triangles.depth().max(spheres.depth()),
+            sah_cost: triangles.sah_cost(),
+        };
+        let spheres4 = Bvh4::from_binary(&spheres);
+        let mut triangles = triangles;
+        let mut spheres = spheres;
+        triangles.nodes = Vec::new();
+        spheres.nodes = Vec::new();
         let sphere_data = spheres
             .prim_order
             .iter()
@@ -225,21 +246,13 @@ impl NativeBvh {
             triangles4,
             triangles,
             triangle_store,
-            spheres4: Bvh4::from_binary(&spheres),
+            spheres4,
             spheres,
             sphere_data,
             triangle_count: mesh.len() as u32,
             build_ms: start.elapsed().as_secs_f64() * 1e3,
+            shape,
         }
-    }
-
-    /// The triangle tree (for invariants and statistics).
-    pub fn triangle_bvh(&self) -> &Bvh {
-        &self.triangles
-    }
-
-    pub fn sphere_bvh(&self) -> &Bvh {
-        &self.spheres
     }
 
     /// Nearest triangle hit: (leaf slot, u, v, unit normal), shrinking
@@ -368,7 +381,7 @@ impl NativeBvh {
         counters: &mut TraceCounters,
     ) -> Option<u32> {
         let mut best = None;
-        if self.spheres.is_empty() {
+        if self.spheres.prim_order.is_empty() {
             return None;
         }
         traverse(
@@ -462,10 +475,10 @@ impl Accel for NativeBvh {
                     TriangleStore::Corners(c) => c.len() * std::mem::size_of::<[Vec3; 3]>(),
                 }
                 + self.sphere_data.len() * std::mem::size_of::<(Vec3, f32)>(),
-            nodes: t.nodes.len() + s.nodes.len(),
-            leaves: t.leaf_count() + s.leaf_count(),
-            depth: t.depth().max(s.depth()),
-            sah_cost: t.sah_cost(),
+            nodes: self.shape.nodes,
+            leaves: self.shape.leaves,
+            depth: self.shape.depth,
+            sah_cost: self.shape.sah_cost,
             details: format!(
                 "{} triangles, {:?} build, max leaf {}",
                 match self.options.triangle {
