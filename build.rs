@@ -104,7 +104,6 @@ fn from_debian() -> Option<Embree> {
 
 fn fail(what: &str) -> ! {
     eprintln!("error: hybrid cannot build: {what}; {INSTALL_HINT}");
-    println!("cargo:warning=hybrid cannot build: {what}; {INSTALL_HINT}");
     std::process::exit(1);
 }
 

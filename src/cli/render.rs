@@ -280,6 +280,10 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
             stats.details,
             stats.memory_bytes as f64 / (1 << 20) as f64
         ),
+        AccelKind::None if stats.primitives > crate::parity::BRUTE_FORCE_LIMIT => say!(
+            "no acceleration structure: brute force over {} primitives will be slow (every ray tests every primitive)",
+            stats.primitives
+        ),
         AccelKind::None => say!("no acceleration structure (brute force over {} primitives)", stats.primitives),
     }
 

@@ -17,9 +17,10 @@ use crate::accel::native::NativeOptions;
 use crate::accel::{Accel, AccelError, AccelKind, AccelOptions, Backend, Hit, Ray, TraceCounters};
 use crate::scene::Scene;
 
-/// Hits agree in distance when `|t_a - t_b| <= T_RELATIVE * max(t_a, 0.01
-/// * scene size)`: rounding error scales with the coordinates, not with t,
-/// so very short hits are judged on the scene's scale.
+/// Hits agree in distance when
+/// `|t_a - t_b| <= T_RELATIVE * max(t_a, scene size / 100)`: rounding error
+/// scales with the coordinates, not with t, so very short hits are judged
+/// on the scene's scale.
 pub const T_RELATIVE: f32 = 1e-4;
 /// Grazing rays (within 0.5 degrees of the surface) amplify a position
 /// error e normal to the surface into a t error e / sin(angle) (up to
