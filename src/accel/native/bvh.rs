@@ -53,6 +53,15 @@ pub enum BuildMethod {
 /// Cost constants of the SAH, relative to one primitive test.
 pub const TRAVERSAL_COST: f64 = 1.0;
 pub const INTERSECTION_COST: f64 = 1.0;
+/// Triangles tested together by one SIMD leaf test (see `triangle.rs`).
+pub const LEAF_BLOCK: usize = 4;
+
+/// Cost of a leaf of `n` primitives: leaves are tested in blocks of
+/// [`LEAF_BLOCK`] at the price of one, so a leaf of up to four costs one
+/// test and the builder fills leaves instead of splitting them further.
+pub fn leaf_cost(n: usize) -> f64 {
+    INTERSECTION_COST * n.div_ceil(LEAF_BLOCK) as f64
+}
 const BINS: usize = 16;
 /// Below this many primitives children are built on the calling thread.
 const PARALLEL_THRESHOLD: usize = 4096;
@@ -151,7 +160,7 @@ impl Bvh {
 
     /// SAH cost of the tree: expected cost of a random ray through the root
     /// (MacDonald and Booth 1990), with [`TRAVERSAL_COST`] per inner node
-    /// and [`INTERSECTION_COST`] per primitive.
+    /// and [`leaf_cost`] per leaf.
     pub fn sah_cost(&self) -> f64 {
         let Some(root) = self.nodes.first() else {
             return 0.0;
@@ -165,7 +174,7 @@ impl Bvh {
             .map(|n| {
                 let a = area(&n.bounds()) / root_area;
                 if n.is_leaf() {
-                    a * INTERSECTION_COST * n.count as f64
+                    a * leaf_cost(n.count as usize)
                 } else {
                     a * TRAVERSAL_COST
                 }
@@ -292,8 +301,7 @@ fn sah_split(
                 continue;
             }
             let cost = TRAVERSAL_COST
-                + INTERSECTION_COST
-                    * (area(&acc) * cnt as f64 + right_area[i + 1] * right_count[i + 1] as f64)
+                + (area(&acc) * leaf_cost(cnt) + right_area[i + 1] * leaf_cost(right_count[i + 1]))
                     / parent_area;
             if best.is_none_or(|(c, _, _)| cost < c) {
                 best = Some((cost, axis, i + 1));
@@ -301,7 +309,7 @@ fn sah_split(
         }
     }
     let (cost, axis, boundary) = best?;
-    if n <= max_leaf && cost >= INTERSECTION_COST * n as f64 {
+    if n <= max_leaf && cost >= leaf_cost(n) {
         return None;
     }
     let lo = centroids.min[axis];
