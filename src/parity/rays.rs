@@ -7,16 +7,9 @@ use crate::accel::{Accel, Ray, TraceCounters};
 use crate::render::camera::{Camera, CameraMode};
 use crate::render::integrator::spawn_ray;
 use crate::render::light::sample_li;
+pub use crate::render::sampling::uniform_sphere;
 use crate::render::sampling::{cosine_hemisphere, Frame, Rng};
 use crate::scene::Scene;
-
-/// Uniform direction on the unit sphere.
-pub fn uniform_sphere(u: f32, v: f32) -> Vec3 {
-    let z = 1.0 - 2.0 * u;
-    let r = (1.0 - z * z).max(0.0).sqrt();
-    let phi = 2.0 * std::f32::consts::PI * v;
-    Vec3::new(r * phi.cos(), r * phi.sin(), z)
-}
 
 /// Camera rays in the order a renderer sends them: 8x8-pixel tiles of a
 /// 4:3 image of about `n` pixels, one jittered ray per pixel.

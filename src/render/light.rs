@@ -4,7 +4,7 @@
 
 use glam::Vec3;
 
-use super::sampling::{cosine_hemisphere, Frame, Rng};
+use super::sampling::{cosine_hemisphere, uniform_sphere, Frame, Rng};
 use crate::scene::Light;
 
 /// Incident light from one sample of a light.
@@ -66,6 +66,34 @@ pub fn sample_li(light: &Light, p: Vec3, n: Vec3, rng: &mut Rng) -> Option<Light
             distance: f32::INFINITY,
             contribution: radiance,
         }),
+        Light::Sphere {
+            center,
+            radius,
+            radiance,
+        } => {
+            // Uniform over the sphere's area; the far side faces away and
+            // gives nothing.
+            let (u, v) = rng.next_2d();
+            let normal = uniform_sphere(u, v);
+            let q = center + normal * radius;
+            let to = q - p;
+            let d2 = to.length_squared();
+            if d2 == 0.0 {
+                return None;
+            }
+            let distance = d2.sqrt();
+            let wi = to / distance;
+            let cos_light = -wi.dot(normal);
+            if cos_light <= 0.0 {
+                return None;
+            }
+            let area = 4.0 * std::f32::consts::PI * radius * radius;
+            Some(LightSample {
+                wi,
+                distance,
+                contribution: radiance * (cos_light * area / d2),
+            })
+        }
         Light::Ambient { radiance } => {
             // Cosine-weighted around n: contribution = L / pdf = L pi / cos.
             let (u, v) = rng.next_2d();

@@ -94,6 +94,14 @@ impl Frame {
     }
 }
 
+/// Uniform direction on the unit sphere; pdf `1 / (4 pi)`.
+pub fn uniform_sphere(u: f32, v: f32) -> Vec3 {
+    let z = 1.0 - 2.0 * u;
+    let r = (1.0 - z * z).max(0.0).sqrt();
+    let phi = 2.0 * std::f32::consts::PI * v;
+    Vec3::new(r * phi.cos(), r * phi.sin(), z)
+}
+
 /// Uniform direction on the +z hemisphere; pdf `1 / (2 pi)`.
 pub fn uniform_hemisphere(u: f32, v: f32) -> Vec3 {
     let z = u;

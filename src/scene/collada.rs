@@ -719,7 +719,7 @@ impl<'a, 'input> Loader<'a, 'input> {
     /// triangle light each, once, before the rectangles (which already have
     /// their light).
     fn add_light_geometry(&mut self) {
-        self.scene.add_emissive_triangle_lights();
+        self.scene.add_emitter_lights();
         let quads: Vec<AreaLight> = self
             .scene
             .lights

@@ -72,7 +72,7 @@ impl SceneBuilder {
                 max: Vec3::splat(1.0),
             };
         }
-        self.scene.add_emissive_triangle_lights();
+        self.scene.add_emitter_lights();
         self.scene.normal_mode = normal_mode;
         if normal_mode == NormalMode::Smooth {
             self.scene.mesh.compute_smooth_normals();

@@ -208,6 +208,13 @@ pub enum Light {
         to_light: Vec3,
         radiance: Vec3,
     },
+    /// A sphere whose material emits `radiance` outwards, sampled
+    /// uniformly by area.
+    Sphere {
+        center: Vec3,
+        radius: f32,
+        radiance: Vec3,
+    },
     /// Uniform radiance arriving from the world's +Y hemisphere.
     Ambient {
         radiance: Vec3,
@@ -218,6 +225,7 @@ impl Light {
     pub fn kind(&self) -> &'static str {
         match self {
             Light::Area(l) if l.triangle => "emissive triangle",
+            Light::Sphere { .. } => "emissive sphere",
             Light::Area(_) => "area",
             Light::Point { .. } => "point",
             Light::Directional { .. } => "directional",
@@ -349,9 +357,19 @@ impl Scene {
         b
     }
 
-    /// Adds a triangle light for every triangle whose material emits, so
+    /// Adds a light for every triangle and sphere whose material emits, so
     /// that light sampling sees the same emitters as hemisphere sampling.
-    pub fn add_emissive_triangle_lights(&mut self) {
+    pub fn add_emitter_lights(&mut self) {
+        for s in &self.spheres {
+            let radiance = self.materials[s.material as usize].emission();
+            if radiance != Vec3::ZERO {
+                self.lights.push(Light::Sphere {
+                    center: s.center,
+                    radius: s.radius,
+                    radiance,
+                });
+            }
+        }
         for i in 0..self.mesh.len() {
             let radiance = self.materials[self.mesh.materials[i] as usize].emission();
             if radiance == Vec3::ZERO {

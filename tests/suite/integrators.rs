@@ -352,3 +352,61 @@ fn same_seed_gives_the_same_image_for_any_thread_count() {
         "thread count changed the image"
     );
 }
+
+#[test]
+fn emissive_spheres_are_lights_for_both_estimators() {
+    use hybrid::scene::generate::{plate, SceneBuilder};
+    use hybrid::scene::{Light, Material, NormalMode};
+    let mut b = SceneBuilder::new("lamp over a plate");
+    let floor = b.material(Material::lambertian(Vec3::splat(0.7)));
+    let lamp = b.material(Material::Emission {
+        radiance: Vec3::splat(5.0),
+    });
+    let (p, t) = plate(4);
+    b.mesh(&p, &t, floor);
+    b.sphere(Vec3::new(0.2, -0.1, 0.5), 0.2, lamp);
+    b.camera(Vec3::new(0.0, -0.5, 3.0), Vec3::ZERO, 50.0, 40.0);
+    let scene = b.finish(NormalMode::Flat);
+    assert!(
+        scene
+            .lights
+            .iter()
+            .any(|l| matches!(l, Light::Sphere { .. })),
+        "the emissive sphere is not a light"
+    );
+    let mut stats = Vec::new();
+    for estimator in [DirectEstimator::Hemisphere, DirectEstimator::LightSampling] {
+        let means: Vec<f64> = (0..6)
+            .map(|seed| {
+                let film = run(
+                    &scene,
+                    24,
+                    18,
+                    32,
+                    50 + seed,
+                    Shading::Path(path(estimator, 1)),
+                    CameraMode::Node,
+                )
+                .film;
+                // The floor only: pixels that do not see the lamp itself.
+                let floor: Vec<f64> = film
+                    .pixels
+                    .iter()
+                    .map(|p| p.x as f64)
+                    .filter(|&v| v < 4.0)
+                    .collect();
+                floor.iter().sum::<f64>() / floor.len() as f64
+            })
+            .collect();
+        let m = means.iter().sum::<f64>() / means.len() as f64;
+        let se = (means.iter().map(|x| (x - m).powi(2)).sum::<f64>() / 5.0 / 6.0).sqrt();
+        stats.push((m, se));
+    }
+    let ((h, hs), (l, ls)) = (stats[0], stats[1]);
+    println!("floor under an emissive sphere: hemisphere {h:.4} ± {hs:.4}, light sampling {l:.4} ± {ls:.4}");
+    assert!(l > 0.01, "light sampling sees no light from the sphere");
+    assert!(
+        (h - l).abs() <= 4.0 * (hs * hs + ls * ls).sqrt(),
+        "hemisphere {h:.4} ± {hs:.4} vs light {l:.4} ± {ls:.4}"
+    );
+}
