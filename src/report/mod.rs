@@ -426,7 +426,7 @@ fn brute_force_section(dir: &Path, budget: &Budget) -> Result<String, String> {
         let (n, _) = mrays(&native, &set, Query::Closest, 1, budget.repeats);
         let (e, _) = mrays(&embree, &set, Query::Closest, 1, budget.repeats);
         md += &format!(
-            "| {rel} | {} | {b:.3} | {n:.2} | {e:.2} | {:.0}x |\n",
+            "| {rel} | {} | {b:.3} | {n:.2} | {e:.2} | {:.1}x |\n",
             scene.primitive_count(),
             n / b
         );
