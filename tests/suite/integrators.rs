@@ -143,7 +143,20 @@ fn russian_roulette_terminates_unbounded_paths() {
 
 #[test]
 fn hemisphere_and_light_sampling_converge_to_the_same_image() {
-    let scene = scene_or_skip!("sky/CBspheres_lambertian.dae");
+    // Area light; ambient + directional; ambient only; ambient + directional
+    // over a mesh.
+    for rel in [
+        "sky/CBspheres_lambertian.dae",
+        "basic/sphere_diffuse.dae",
+        "sky/bunny.dae",
+        "keenan/banana.dae",
+    ] {
+        hemisphere_matches_light_sampling(rel);
+    }
+}
+
+fn hemisphere_matches_light_sampling(rel: &str) {
+    let scene = scene_or_skip!(rel);
     // Region means over a 4 x 3 grid, over several seeds, for both estimators.
     let (w, h, seeds) = (32u32, 24u32, 24u64);
     let regions = |film: &Film| -> Vec<f64> {
@@ -199,12 +212,12 @@ fn hemisphere_and_light_sampling_converge_to_the_same_image() {
         let diff = (hemi.0[r] - light.0[r]).abs();
         let se = (hemi.1[r].powi(2) + light.1[r].powi(2)).sqrt();
         println!(
-            "region {r}: hemisphere {:.3} ± {:.3}, light {:.3} ± {:.3}",
+            "{rel} region {r}: hemisphere {:.3} ± {:.3}, light {:.3} ± {:.3}",
             hemi.0[r], hemi.1[r], light.0[r], light.1[r]
         );
         assert!(
             diff <= 4.0 * se + 1e-3 * light.0[r],
-            "region {r}: hemisphere {:.3} vs light {:.3} (± {se:.3})",
+            "{rel} region {r}: hemisphere {:.3} vs light {:.3} (± {se:.3})",
             hemi.0[r],
             light.0[r]
         );
