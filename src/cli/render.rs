@@ -295,6 +295,11 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
     if !std::io::stderr().is_terminal() {
         bar.set_draw_target(indicatif::ProgressDrawTarget::hidden());
     }
+    if let Ok(style) = indicatif::ProgressStyle::with_template(
+        "rendering [{bar:40}] {pos}/{len} rows, {elapsed} elapsed, ~{eta} left",
+    ) {
+        bar.set_style(style.progress_chars("=> "));
+    }
     let result = render(&scene, &accel, &settings, &Bar(bar.clone()));
     bar.finish_and_clear();
 
