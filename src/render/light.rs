@@ -19,31 +19,41 @@ pub struct LightSample {
     pub contribution: Vec3,
 }
 
+/// The sample for point `q` (normal `normal`) drawn uniformly on an
+/// emitter of total `area`, seen from `p`: the area density 1/A becomes
+/// the solid-angle density d^2 / (cos A).
+fn from_area_point(
+    p: Vec3,
+    q: Vec3,
+    normal: Vec3,
+    area: f32,
+    radiance: Vec3,
+) -> Option<LightSample> {
+    let to = q - p;
+    let d2 = to.length_squared();
+    if d2 == 0.0 {
+        return None;
+    }
+    let distance = d2.sqrt();
+    let wi = to / distance;
+    let cos_light = -wi.dot(normal);
+    if cos_light <= 0.0 {
+        return None;
+    }
+    Some(LightSample {
+        wi,
+        distance,
+        contribution: radiance * (cos_light * area / d2),
+    })
+}
+
 /// Samples `light` as seen from `p` with normal `n` (facing the side being
 /// lit). `None` when the sample carries no light.
 pub fn sample_li(light: &Light, p: Vec3, n: Vec3, rng: &mut Rng) -> Option<LightSample> {
     match *light {
         Light::Area(a) => {
-            let (s, t) = rng.next_2d();
-            let q = a.point_at(s, t);
-            let to = q - p;
-            let d2 = to.length_squared();
-            if d2 == 0.0 {
-                return None;
-            }
-            let distance = d2.sqrt();
-            let wi = to / distance;
-            let cos_light = -wi.dot(a.normal);
-            if cos_light <= 0.0 {
-                return None;
-            }
-            // Area density 1/A converted to solid angle: d^2 / (cos A).
-            let contribution = a.radiance * (cos_light * a.area / d2);
-            Some(LightSample {
-                wi,
-                distance,
-                contribution,
-            })
+            let (u, v) = rng.next_2d();
+            from_area_point(p, a.point_at(u, v), a.normal, a.area, a.radiance)
         }
         Light::Point {
             position,
@@ -75,24 +85,8 @@ pub fn sample_li(light: &Light, p: Vec3, n: Vec3, rng: &mut Rng) -> Option<Light
             // gives nothing.
             let (u, v) = rng.next_2d();
             let normal = uniform_sphere(u, v);
-            let q = center + normal * radius;
-            let to = q - p;
-            let d2 = to.length_squared();
-            if d2 == 0.0 {
-                return None;
-            }
-            let distance = d2.sqrt();
-            let wi = to / distance;
-            let cos_light = -wi.dot(normal);
-            if cos_light <= 0.0 {
-                return None;
-            }
             let area = 4.0 * std::f32::consts::PI * radius * radius;
-            Some(LightSample {
-                wi,
-                distance,
-                contribution: radiance * (cos_light * area / d2),
-            })
+            from_area_point(p, center + normal * radius, normal, area, radiance)
         }
         Light::Ambient { radiance } => {
             // Cosine-weighted around n: contribution = L / pdf = L pi / cos.
