@@ -172,11 +172,11 @@ pub fn run(options: &ReportOptions, log: &mut dyn FnMut(&str)) -> Result<(), Str
     let mut json_scenes = Vec::new();
 
     // Per-scene builds and traces.
-    md += "## Build and trace, per scene\n\n";
+    let mut per_scene = String::from("## Build and trace, per scene\n\n");
     for (size, rel) in SCENES {
         let scene = load(&options.scenes_dir, rel)?;
         let (section, value) = scene_section(size, rel, &scene, &budget, threads)?;
-        md += &section;
+        per_scene += &section;
         json_scenes.push(value);
         log(&format!(
             "report: {rel} measured ({:.0} s)",
@@ -184,6 +184,8 @@ pub fn run(options: &ReportOptions, log: &mut dyn FnMut(&str)) -> Result<(), Str
         ));
     }
 
+    md += &headline(&json_scenes);
+    md += &per_scene;
     md += &brute_force_section(&options.scenes_dir, &budget)?;
     log(&format!(
         "report: brute force measured ({:.0} s)",
@@ -237,6 +239,37 @@ pub fn run(options: &ReportOptions, log: &mut dyn FnMut(&str)) -> Result<(), Str
         options.out_dir.join("report.md").display()
     ));
     Ok(())
+}
+
+/// The summary table at the top: one thread, per scene and ray kind, with
+/// the builds beside them.
+fn headline(scenes: &[Value]) -> String {
+    let mut md = String::from(
+        "## Headline (1 thread, Mrays/s; build in ms)\n\n| scene | primitives | native build | embree build | camera native / embree | shadow native / embree | bounce native / embree |\n|---|---|---|---|---|---|---|\n",
+    );
+    for s in scenes {
+        let f = |v: &Value| v.as_f64().unwrap_or(f64::NAN);
+        let rays = |kind: &str| {
+            let r = &s["rays"][kind];
+            format!(
+                "{:.2} / {:.2} ({:.2}x)",
+                f(&r["native_mrays"]),
+                f(&r["embree_mrays"]),
+                f(&r["ratio"])
+            )
+        };
+        md += &format!(
+            "| {} | {} | {:.2} | {:.2} | {} | {} | {} |\n",
+            s["scene"].as_str().unwrap_or("?"),
+            s["primitives"],
+            f(&s["native_build_ms"]),
+            f(&s["embree_build_ms"]),
+            rays("camera"),
+            rays("shadow"),
+            rays("bounce")
+        );
+    }
+    md + "\n"
 }
 
 fn scene_section(
