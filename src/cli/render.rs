@@ -149,8 +149,8 @@ impl RenderArgs {
                 };
                 if cell.width == 0
                     || cell.height == 0
-                    || cell.x + cell.width > width
-                    || cell.y + cell.height > height
+                    || cell.x.checked_add(cell.width).is_none_or(|end| end > width)
+                    || cell.y.checked_add(cell.height).is_none_or(|end| end > height)
                 {
                     return Err(format!(
                         "-p {} {} {} {}: the cell must be non-empty and inside the {width} x {height} image",
