@@ -88,6 +88,9 @@ pub struct RenderArgs {
     /// Embree backend: robust scene flag.
     #[arg(long)]
     pub robust: bool,
+    /// Native backend: traverse 4-wide (SSE) even where AVX allows 8-wide.
+    #[arg(long)]
+    pub no_avx: bool,
 }
 
 impl RenderArgs {
@@ -150,7 +153,10 @@ impl RenderArgs {
                 if cell.width == 0
                     || cell.height == 0
                     || cell.x.checked_add(cell.width).is_none_or(|end| end > width)
-                    || cell.y.checked_add(cell.height).is_none_or(|end| end > height)
+                    || cell
+                        .y
+                        .checked_add(cell.height)
+                        .is_none_or(|end| end > height)
                 {
                     return Err(format!(
                         "-p {} {} {} {}: the cell must be non-empty and inside the {width} x {height} image",
@@ -196,6 +202,7 @@ impl RenderArgs {
                 triangle: self.triangle,
                 method: self.build,
                 max_leaf: self.leaf,
+                wide8: !self.no_avx,
             },
             embree: EmbreeOptions {
                 quality: self.quality,

@@ -1,5 +1,6 @@
 //! The native backend: the project's own BVH ([`bvh`]) over the scene's
-//! triangles ([`triangle`]) and, in a second tree, its spheres ([`sphere`]).
+//! triangles ([`triangle`]) and, in a second tree, its spheres ([`sphere`]),
+//! traversed as 8-wide (AVX) or 4-wide (SSE) trees ([`wide`]).
 //!
 //! Triangles-only scenes pay nothing for spheres on the per-ray path beyond
 //! one emptiness check. Triangle data are stored in leaf order, precomputed
@@ -16,7 +17,7 @@ use glam::Vec3;
 
 use self::bvh::{BuildMethod, Bvh};
 use self::triangle::{MollerTrumbore, TriangleBlock4, TriangleMode, TriangleTest, Watertight};
-use self::wide::{BoxRay4, Bvh4, ChildHit};
+use self::wide::{BoxRay, Bvh4, Bvh8, BvhWide, ChildHit};
 use super::{Accel, AccelStats, Hit, Ray, TraceCounters};
 use crate::scene::{Bounds, Scene};
 
@@ -27,6 +28,8 @@ pub struct NativeOptions {
     pub method: BuildMethod,
     /// Largest number of primitives in a leaf.
     pub max_leaf: usize,
+    /// Traverse 8-wide with AVX when the CPU has it (else 4-wide SSE).
+    pub wide8: bool,
 }
 
 impl Default for NativeOptions {
@@ -35,12 +38,14 @@ impl Default for NativeOptions {
             triangle: TriangleMode::MollerTrumbore,
             method: BuildMethod::Sah,
             max_leaf: 4,
+            wide8: true,
         }
     }
 }
 
-/// Deepest tree the fixed traversal stack handles; deeper SAH trees (only
-/// from pathological inputs) are rebuilt with median splits.
+/// Deepest binary tree accepted; deeper SAH trees (only from pathological
+/// inputs) are rebuilt with median splits, which keeps traversal stacks
+/// small.
 const MAX_DEPTH: usize = 96;
 
 /// Conservative far-plane scale for the box test, 1 + 2γ(3) (Ize 2013,
@@ -49,15 +54,21 @@ const MAX_DEPTH: usize = 96;
 pub(crate) const BOX_FAR_SCALE: f32 =
     1.0 + 2.0 * (3.0 * f32::EPSILON * 0.5) / (1.0 - 3.0 * f32::EPSILON * 0.5);
 
+/// The traversal trees of one width: triangles and spheres.
+enum Trees {
+    Four(Bvh4, Bvh4),
+    /// Exists only on CPUs with AVX ([`Bvh8::from_binary`] checks).
+    Eight(Bvh8, Bvh8),
+}
+
 pub struct NativeBvh {
     options: NativeOptions,
     /// The binary SAH trees keep only their leaf order (slot -> primitive)
-    /// once the 4-wide trees are made; their shape is kept in `shape`.
+    /// once the wide trees are made; their shape is kept in `shape`.
     triangles: Bvh,
-    triangles4: Bvh4,
-    triangle_store: TriangleStore,
     spheres: Bvh,
-    spheres4: Bvh4,
+    trees: Trees,
+    triangle_store: TriangleStore,
     /// Per leaf slot: centre and radius.
     sphere_data: Vec<(Vec3, f32)>,
     triangle_count: u32,
@@ -88,18 +99,18 @@ fn safe_inverse(dir: Vec3) -> Vec3 {
     Vec3::new(safe(dir.x), safe(dir.y), safe(dir.z))
 }
 
-/// Deepest stack the 4-wide traversal needs: up to three deferred
-/// children per level of the binary tree.
-const STACK: usize = 3 * MAX_DEPTH + 4;
+/// Traversal stack entries kept on the machine stack; deeper trees (rare)
+/// use a heap stack of their exact bound.
+const SMALL_STACK: usize = 128;
 
-/// Walks the 4-wide tree front to back and calls `leaf_test(first, count,
+/// Walks the wide tree front to back and calls `leaf_test(first, count,
 /// t_max)` for every leaf the ray reaches; it returns the nearest hit in
 /// the leaf, which shrinks the interval. With `any`, stops at the first hit.
 /// Returns whether anything was hit.
 #[inline(always)]
-fn traverse(
-    tree: &Bvh4,
-    ray: &BoxRay4,
+fn traverse<const N: usize>(
+    tree: &BvhWide<N>,
+    ray: &BoxRay,
     t_min: f32,
     t_max: &mut f32,
     any: bool,
@@ -118,9 +129,16 @@ fn traverse(
     if tree.nodes.is_empty() {
         return false;
     }
-    let mut stack = [ChildHit::default(); STACK];
+    let mut small = [ChildHit::default(); SMALL_STACK];
+    let mut large = Vec::new();
+    let stack: &mut [ChildHit] = if tree.max_stack <= SMALL_STACK {
+        &mut small
+    } else {
+        large.resize(tree.max_stack, ChildHit::default());
+        &mut large
+    };
     let mut top = 1usize; // stack[0] is the root (inner node 0)
-    let mut children = [ChildHit::default(); 4];
+    let mut children = [ChildHit::default(); N];
     while top > 0 {
         top -= 1;
         let entry = stack[top];
@@ -139,12 +157,11 @@ fn traverse(
             continue;
         }
         let node = &tree.nodes[entry.child as usize];
-        counters.box_tests += 4;
-        let n = Bvh4::hit_children(node, ray, t_min, *t_max, &mut children);
+        counters.box_tests += N as u64;
+        let n = tree.hit_children(node, ray, t_min, *t_max, &mut children);
         // Push farthest first so the nearest child is visited next
-        // (insertion sort: at most four entries).
-        for i in 0..n {
-            let c = children[i];
+        // (insertion sort over at most N entries).
+        for (i, &c) in children[..n].iter().enumerate() {
             let mut j = top + i;
             while j > top && stack[j - 1].t_near < c.t_near {
                 stack[j] = stack[j - 1];
@@ -169,6 +186,30 @@ enum TriangleStore {
     Corners(Vec<[Vec3; 3]>),
 }
 
+/// Packs every leaf's triangles into 4-wide blocks and points the leaves
+/// of `tree` at their first block.
+fn pack_blocks<const N: usize>(
+    tree: &mut BvhWide<N>,
+    corners: impl Fn(u32) -> [Vec3; 3],
+) -> TriangleStore {
+    let (mut blocks, mut first_slot) = (Vec::new(), Vec::new());
+    tree.remap_leaves(|first, count| {
+        let block = blocks.len() as u32;
+        for start in (first..first + count).step_by(4) {
+            let lanes: Vec<[Vec3; 3]> = (start..(start + 4).min(first + count))
+                .map(|slot| {
+                    let [a, b, c] = corners(slot);
+                    MollerTrumbore::prepare(a, b, c)
+                })
+                .collect();
+            blocks.push(TriangleBlock4::pack(&lanes));
+            first_slot.push(start);
+        }
+        block
+    });
+    TriangleStore::Blocks { blocks, first_slot }
+}
+
 impl NativeBvh {
     pub fn build(scene: &Scene, options: &NativeOptions) -> NativeBvh {
         let start = Instant::now();
@@ -182,28 +223,40 @@ impl NativeBvh {
                 b
             })
             .collect();
-        let triangles = build_bounded_depth(&tri_boxes, options);
-        let mut triangles4 = Bvh4::from_binary(&triangles);
+        let sphere_boxes: Vec<Bounds> = scene
+            .spheres
+            .iter()
+            .map(|s| Bounds {
+                min: s.center - Vec3::splat(s.radius),
+                max: s.center + Vec3::splat(s.radius),
+            })
+            .collect();
+        let mut triangles = build_bounded_depth(&tri_boxes, options);
+        let mut spheres = build_bounded_depth(&sphere_boxes, options);
+        let shape = TreeShape {
+            nodes: triangles.nodes.len() + spheres.nodes.len(),
+            leaves: triangles.leaf_count() + spheres.leaf_count(),
+            depth: triangles.depth().max(spheres.depth()),
+            sah_cost: triangles.sah_cost(),
+        };
+        let wide8 = if options.wide8 {
+            Bvh8::from_binary(&triangles)
+        } else {
+            None
+        };
+        let mut trees = match wide8 {
+            Some(t) => Trees::Eight(
+                t,
+                Bvh8::from_binary(&spheres).expect("AVX was just detected"),
+            ),
+            None => Trees::Four(Bvh4::from_binary(&triangles), Bvh4::from_binary(&spheres)),
+        };
         let corners = |slot: u32| mesh.corners(triangles.prim_order[slot as usize] as usize);
         let triangle_store = match options.triangle {
-            TriangleMode::MollerTrumbore => {
-                let (mut blocks, mut first_slot) = (Vec::new(), Vec::new());
-                triangles4.remap_leaves(|first, count| {
-                    let block = blocks.len() as u32;
-                    for start in (first..first + count).step_by(4) {
-                        let lanes: Vec<[Vec3; 3]> = (start..(start + 4).min(first + count))
-                            .map(|slot| {
-                                let [a, b, c] = corners(slot);
-                                MollerTrumbore::prepare(a, b, c)
-                            })
-                            .collect();
-                        blocks.push(TriangleBlock4::pack(&lanes));
-                        first_slot.push(start);
-                    }
-                    block
-                });
-                TriangleStore::Blocks { blocks, first_slot }
-            }
+            TriangleMode::MollerTrumbore => match &mut trees {
+                Trees::Four(t, _) => pack_blocks(t, corners),
+                Trees::Eight(t, _) => pack_blocks(t, corners),
+            },
             TriangleMode::Watertight => TriangleStore::Corners(
                 (0..triangles.prim_order.len() as u32)
                     .map(|slot| {
@@ -213,24 +266,6 @@ impl NativeBvh {
                     .collect(),
             ),
         };
-        let sphere_boxes: Vec<Bounds> = scene
-            .spheres
-            .iter()
-            .map(|s| Bounds {
-                min: s.center - Vec3::splat(s.radius),
-                max: s.center + Vec3::splat(s.radius),
-            })
-            .collect();
-        let spheres = build_bounded_depth(&sphere_boxes, options);
-        let shape = TreeShape {
-            nodes: triangles.nodes.len() + spheres.nodes.len(),
-            leaves: triangles.leaf_count() + spheres.leaf_count(),
-            depth: triangles.depth().max(spheres.depth()),
-            sah_cost: triangles.sah_cost(),
-        };
-        let spheres4 = Bvh4::from_binary(&spheres);
-        let mut triangles = triangles;
-        let mut spheres = spheres;
         triangles.nodes = Vec::new();
         spheres.nodes = Vec::new();
         let sphere_data = spheres
@@ -243,11 +278,10 @@ impl NativeBvh {
             .collect();
         NativeBvh {
             options: *options,
-            triangles4,
             triangles,
-            triangle_store,
-            spheres4,
             spheres,
+            trees,
+            triangle_store,
             sphere_data,
             triangle_count: mesh.len() as u32,
             build_ms: start.elapsed().as_secs_f64() * 1e3,
@@ -255,12 +289,22 @@ impl NativeBvh {
         }
     }
 
+    /// Width of the traversal trees (8 with AVX, else 4).
+    pub fn width(&self) -> usize {
+        match self.trees {
+            Trees::Four(..) => 4,
+            Trees::Eight(..) => 8,
+        }
+    }
+
     /// Nearest triangle hit: (leaf slot, u, v, unit normal), shrinking
     /// `t_max` to its distance.
-    fn closest_triangle(
+    #[inline(always)]
+    fn closest_triangle<const N: usize>(
         &self,
+        tree: &BvhWide<N>,
         ray: &Ray,
-        box_ray: &BoxRay4,
+        box_ray: &BoxRay,
         t_max: &mut f32,
         counters: &mut TraceCounters,
     ) -> Option<(u32, f32, f32, Vec3)> {
@@ -269,7 +313,7 @@ impl NativeBvh {
         match &self.triangle_store {
             TriangleStore::Blocks { blocks, first_slot } => {
                 traverse(
-                    &self.triangles4,
+                    tree,
                     box_ray,
                     t_min,
                     t_max,
@@ -303,7 +347,7 @@ impl NativeBvh {
             TriangleStore::Corners(corners) => {
                 let setup = Watertight::setup(ray);
                 traverse(
-                    &self.triangles4,
+                    tree,
                     box_ray,
                     t_min,
                     t_max,
@@ -329,11 +373,18 @@ impl NativeBvh {
         best.map(|(slot, u, v, n)| (slot, u, v, n.normalize_or_zero()))
     }
 
-    fn any_triangle(&self, ray: &Ray, box_ray: &BoxRay4, counters: &mut TraceCounters) -> bool {
+    #[inline(always)]
+    fn any_triangle<const N: usize>(
+        &self,
+        tree: &BvhWide<N>,
+        ray: &Ray,
+        box_ray: &BoxRay,
+        counters: &mut TraceCounters,
+    ) -> bool {
         let (t_min, mut t_max) = (ray.t_min, ray.t_max);
         match &self.triangle_store {
             TriangleStore::Blocks { blocks, .. } => traverse(
-                &self.triangles4,
+                tree,
                 box_ray,
                 t_min,
                 &mut t_max,
@@ -353,7 +404,7 @@ impl NativeBvh {
             TriangleStore::Corners(corners) => {
                 let setup = Watertight::setup(ray);
                 traverse(
-                    &self.triangles4,
+                    tree,
                     box_ray,
                     t_min,
                     &mut t_max,
@@ -372,20 +423,22 @@ impl NativeBvh {
     }
 
     /// Nearest sphere hit in `[t_min, t_max]`: its leaf slot.
-    fn sphere_hit(
+    #[inline(always)]
+    fn sphere_hit<const N: usize>(
         &self,
+        tree: &BvhWide<N>,
         ray: &Ray,
-        box_ray: &BoxRay4,
+        box_ray: &BoxRay,
         t_max: &mut f32,
         any: bool,
         counters: &mut TraceCounters,
     ) -> Option<u32> {
-        let mut best = None;
         if self.spheres.prim_order.is_empty() {
             return None;
         }
+        let mut best = None;
         traverse(
-            &self.spheres4,
+            tree,
             box_ray,
             ray.t_min,
             t_max,
@@ -406,26 +459,20 @@ impl NativeBvh {
         );
         best
     }
-}
 
-fn build_bounded_depth(boxes: &[Bounds], options: &NativeOptions) -> Bvh {
-    let bvh = Bvh::build(boxes, options.max_leaf, options.method);
-    if bvh.depth() <= MAX_DEPTH {
-        return bvh;
-    }
-    Bvh::build(boxes, options.max_leaf, BuildMethod::Median)
-}
-
-impl Accel for NativeBvh {
-    fn closest_hit(&self, ray: &Ray, counters: &mut TraceCounters) -> Option<Hit> {
-        counters.rays += 1;
-        if !ray.is_traceable() {
-            return None;
-        }
-        let box_ray = BoxRay4::new(ray.origin, safe_inverse(ray.dir));
+    /// Closest hit through the trees of one width.
+    #[inline(always)]
+    fn closest<const N: usize>(
+        &self,
+        triangles: &BvhWide<N>,
+        spheres: &BvhWide<N>,
+        ray: &Ray,
+        counters: &mut TraceCounters,
+    ) -> Option<Hit> {
+        let box_ray = BoxRay::new(ray.origin, safe_inverse(ray.dir));
         let mut t_max = ray.t_max;
-        let triangle = self.closest_triangle(ray, &box_ray, &mut t_max, counters);
-        if let Some(slot) = self.sphere_hit(ray, &box_ray, &mut t_max, false, counters) {
+        let triangle = self.closest_triangle(triangles, ray, &box_ray, &mut t_max, counters);
+        if let Some(slot) = self.sphere_hit(spheres, ray, &box_ray, &mut t_max, false, counters) {
             let (c, _) = self.sphere_data[slot as usize];
             let prim = self.triangle_count + self.spheres.prim_order[slot as usize];
             return Some(Hit {
@@ -446,28 +493,105 @@ impl Accel for NativeBvh {
         })
     }
 
+    /// Occlusion through the trees of one width.
+    #[inline(always)]
+    fn any<const N: usize>(
+        &self,
+        triangles: &BvhWide<N>,
+        spheres: &BvhWide<N>,
+        ray: &Ray,
+        counters: &mut TraceCounters,
+    ) -> bool {
+        let box_ray = BoxRay::new(ray.origin, safe_inverse(ray.dir));
+        self.any_triangle(triangles, ray, &box_ray, counters)
+            || self
+                .sphere_hit(
+                    spheres,
+                    ray,
+                    &box_ray,
+                    &mut ray.t_max.clone(),
+                    true,
+                    counters,
+                )
+                .is_some()
+    }
+
+    /// The 8-wide path compiled with AVX, so the AVX slab test inlines into
+    /// the traversal loop.
+    ///
+    /// # Safety
+    /// The CPU must support AVX (true whenever `Trees::Eight` exists).
+    #[cfg_attr(target_arch = "x86_64", target_feature(enable = "avx"))]
+    unsafe fn closest_avx(
+        &self,
+        triangles: &Bvh8,
+        spheres: &Bvh8,
+        ray: &Ray,
+        counters: &mut TraceCounters,
+    ) -> Option<Hit> {
+        self.closest(triangles, spheres, ray, counters)
+    }
+
+    /// # Safety
+    /// As [`NativeBvh::closest_avx`].
+    #[cfg_attr(target_arch = "x86_64", target_feature(enable = "avx"))]
+    unsafe fn any_avx(
+        &self,
+        triangles: &Bvh8,
+        spheres: &Bvh8,
+        ray: &Ray,
+        counters: &mut TraceCounters,
+    ) -> bool {
+        self.any(triangles, spheres, ray, counters)
+    }
+}
+
+fn build_bounded_depth(boxes: &[Bounds], options: &NativeOptions) -> Bvh {
+    let bvh = Bvh::build(boxes, options.max_leaf, options.method);
+    if bvh.depth() <= MAX_DEPTH {
+        return bvh;
+    }
+    Bvh::build(boxes, options.max_leaf, BuildMethod::Median)
+}
+
+impl Accel for NativeBvh {
+    fn closest_hit(&self, ray: &Ray, counters: &mut TraceCounters) -> Option<Hit> {
+        counters.rays += 1;
+        if !ray.is_traceable() {
+            return None;
+        }
+        match &self.trees {
+            Trees::Four(t, s) => self.closest(t, s, ray, counters),
+            // SAFETY: `Trees::Eight` is only built after AVX was detected.
+            Trees::Eight(t, s) => unsafe { self.closest_avx(t, s, ray, counters) },
+        }
+    }
+
     fn occluded(&self, ray: &Ray, counters: &mut TraceCounters) -> bool {
         counters.rays += 1;
         if !ray.is_traceable() {
             return false;
         }
-        let box_ray = BoxRay4::new(ray.origin, safe_inverse(ray.dir));
-        self.any_triangle(ray, &box_ray, counters)
-            || self
-                .sphere_hit(ray, &box_ray, &mut ray.t_max.clone(), true, counters)
-                .is_some()
+        match &self.trees {
+            Trees::Four(t, s) => self.any(t, s, ray, counters),
+            // SAFETY: as in `closest_hit`.
+            Trees::Eight(t, s) => unsafe { self.any_avx(t, s, ray, counters) },
+        }
     }
 
     fn stats(&self) -> AccelStats {
         let (t, s) = (&self.triangles, &self.spheres);
+        let wide_bytes = match &self.trees {
+            Trees::Four(a, b) => a.memory_bytes() + b.memory_bytes(),
+            Trees::Eight(a, b) => a.memory_bytes() + b.memory_bytes(),
+        };
         AccelStats {
             backend: "native".into(),
             primitives: t.prim_order.len() + s.prim_order.len(),
             build_ms: self.build_ms,
             memory_bytes: t.memory_bytes()
                 + s.memory_bytes()
-                + self.triangles4.memory_bytes()
-                + self.spheres4.memory_bytes()
+                + wide_bytes
                 + match &self.triangle_store {
                     TriangleStore::Blocks { blocks, first_slot } => {
                         blocks.len() * std::mem::size_of::<TriangleBlock4>() + first_slot.len() * 4
@@ -480,13 +604,14 @@ impl Accel for NativeBvh {
             depth: self.shape.depth,
             sah_cost: self.shape.sah_cost,
             details: format!(
-                "{} triangles, {:?} build, max leaf {}",
+                "{} triangles, {:?} build, max leaf {}, {}-wide traversal",
                 match self.options.triangle {
                     TriangleMode::MollerTrumbore => MollerTrumbore::NAME,
                     TriangleMode::Watertight => Watertight::NAME,
                 },
                 self.options.method,
-                self.options.max_leaf
+                self.options.max_leaf,
+                self.width()
             ),
         }
     }
