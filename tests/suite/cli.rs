@@ -157,3 +157,34 @@ fn same_seed_same_bytes_for_any_thread_count() {
         "-t 1 and -t 2 wrote different bytes"
     );
 }
+
+#[test]
+fn parity_command_prints_its_tables_and_passes_on_a_shared_scene() {
+    let Some(scene) = common::shared("sky/CBspheres_lambertian.dae") else {
+        return;
+    };
+    let dir = common::scratch("cli-parity");
+    let o = hybrid(&["parity", "--rays", "500", scene.to_str().unwrap()], &dir);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    for kind in [
+        "camera rays",
+        "random rays",
+        "bounce rays",
+        "shadow rays",
+        "grazing rays",
+    ] {
+        assert!(stdout.contains(kind), "no '{kind}' table: {stdout}");
+    }
+    assert!(
+        stdout.contains("| embree |") && stdout.contains("| none (brute force) |"),
+        "{stdout}"
+    );
+    let o = hybrid(&["parity", "--hard", "--rays", "200"], &dir);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    assert!(
+        String::from_utf8_lossy(&o.stdout).contains("native watertight"),
+        "{}",
+        text(&o)
+    );
+}
