@@ -15,7 +15,7 @@
 
 use glam::Vec3;
 
-use super::light::{escaped_radiance, sample_li};
+use super::light::{ambient_radiance, escaped_radiance, sample_li};
 use super::material::{self, emitted, is_specular};
 use super::sampling::{uniform_hemisphere, Frame, Rng, UNIFORM_HEMISPHERE_PDF};
 use crate::accel::{Accel, Ray, TraceCounters};
@@ -125,6 +125,8 @@ pub struct Integrator<'a, A: Accel> {
     /// one sample (delta lights).
     sampled_lights: Vec<Light>,
     delta_lights: Vec<Light>,
+    /// Radiance escaped rays see from above (sum of the ambient lights).
+    ambient: Vec3,
 }
 
 impl<'a, A: Accel> Integrator<'a, A> {
@@ -136,6 +138,7 @@ impl<'a, A: Accel> Integrator<'a, A> {
             shading,
             sampled_lights,
             delta_lights,
+            ambient: ambient_radiance(&scene.lights),
         }
     }
 
@@ -176,7 +179,7 @@ impl<'a, A: Accel> Integrator<'a, A> {
         loop {
             let Some(hit) = self.accel.closest_hit(&ray, counters) else {
                 if specular && s.counts(depth) {
-                    total += beta * escaped_radiance(&self.scene.lights, ray.dir);
+                    total += beta * escaped_radiance(self.ambient, ray.dir);
                 }
                 break;
             };
@@ -283,7 +286,7 @@ impl<'a, A: Accel> Integrator<'a, A> {
                                 self.scene.materials[self.scene.material_of(hit.prim) as usize];
                             emitted(&material, -wi.dot(hit.normal))
                         }
-                        None => escaped_radiance(&self.scene.lights, wi),
+                        None => escaped_radiance(self.ambient, wi),
                     };
                     acc += f * incoming * (wi_local.z / UNIFORM_HEMISPHERE_PDF);
                 }

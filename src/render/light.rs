@@ -105,12 +105,9 @@ pub fn sample_li(light: &Light, p: Vec3, n: Vec3, rng: &mut Rng) -> Option<Light
     }
 }
 
-/// Radiance that a ray escaping the scene in direction `dir` receives: the
-/// ambient lights' radiance from the +Y hemisphere.
-pub fn escaped_radiance(lights: &[Light], dir: Vec3) -> Vec3 {
-    if dir.y <= 0.0 {
-        return Vec3::ZERO;
-    }
+/// The summed radiance of the ambient lights: what an escaped ray going up
+/// sees. Computed once per render, not per ray.
+pub fn ambient_radiance(lights: &[Light]) -> Vec3 {
     lights
         .iter()
         .map(|l| match l {
@@ -118,4 +115,15 @@ pub fn escaped_radiance(lights: &[Light], dir: Vec3) -> Vec3 {
             _ => Vec3::ZERO,
         })
         .sum()
+}
+
+/// Radiance that a ray escaping the scene in direction `dir` receives:
+/// `ambient` (see [`ambient_radiance`]) from the +Y hemisphere.
+#[inline]
+pub fn escaped_radiance(ambient: Vec3, dir: Vec3) -> Vec3 {
+    if dir.y > 0.0 {
+        ambient
+    } else {
+        Vec3::ZERO
+    }
 }
