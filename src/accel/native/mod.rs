@@ -186,6 +186,21 @@ enum TriangleStore {
     Corners(Vec<[Vec3; 3]>),
 }
 
+/// The blocks of a leaf that starts at block `first` and holds `count`
+/// triangles: (block index, block, lanes in use).
+#[inline(always)]
+fn leaf_blocks(
+    blocks: &[TriangleBlock4],
+    first: u32,
+    count: u32,
+) -> impl Iterator<Item = (usize, &TriangleBlock4, usize)> {
+    let first = first as usize;
+    blocks[first..first + count.div_ceil(4) as usize]
+        .iter()
+        .enumerate()
+        .map(move |(k, block)| (first + k, block, (count as usize - 4 * k).min(4)))
+}
+
 /// Packs every leaf's triangles into 4-wide blocks and points the leaves
 /// of `tree` at their first block.
 fn pack_blocks<const N: usize>(
@@ -321,23 +336,13 @@ impl NativeBvh {
                     counters,
                     |first, count, mut t_max| {
                         let mut found = None;
-                        for (k, block) in blocks[first as usize..]
-                            .iter()
-                            .take(count.div_ceil(4) as usize)
-                            .enumerate()
-                        {
-                            let lanes = (count as usize - 4 * k).min(4);
+                        for (index, block, lanes) in leaf_blocks(blocks, first, count) {
                             if let Some((lane, t, u, v)) = block.intersect(lanes, ray, t_min, t_max)
                             {
                                 t_max = t;
                                 found = Some(t);
                                 let [_, e1, e2] = block.lane(lane);
-                                best = Some((
-                                    first_slot[first as usize + k] + lane as u32,
-                                    u,
-                                    v,
-                                    e1.cross(e2),
-                                ));
+                                best = Some((first_slot[index] + lane as u32, u, v, e1.cross(e2)));
                             }
                         }
                         found
@@ -391,13 +396,8 @@ impl NativeBvh {
                 true,
                 counters,
                 |first, count, t_max| {
-                    blocks[first as usize..]
-                        .iter()
-                        .take(count.div_ceil(4) as usize)
-                        .enumerate()
-                        .find_map(|(k, block)| {
-                            block.intersect((count as usize - 4 * k).min(4), ray, t_min, t_max)
-                        })
+                    leaf_blocks(blocks, first, count)
+                        .find_map(|(_, block, lanes)| block.intersect(lanes, ray, t_min, t_max))
                         .map(|h| h.1)
                 },
             ),
