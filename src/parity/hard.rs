@@ -114,6 +114,25 @@ pub struct Case {
     pub edge_pairs: Vec<Option<(u32, u32)>>,
 }
 
+impl Case {
+    /// A case without edge-aimed rays, outside the watertight promise.
+    fn new(
+        name: impl Into<String>,
+        failure: &'static str,
+        scene: Scene,
+        rays: Vec<(Ray, Expect)>,
+    ) -> Case {
+        Case {
+            name: name.into(),
+            failure,
+            scene,
+            rays,
+            watertight_promise: false,
+            edge_pairs: Vec::new(),
+        }
+    }
+}
+
 /// A case's outcome for one mode.
 #[derive(Clone, Debug, Default)]
 pub struct Outcome {
@@ -463,12 +482,13 @@ pub fn cases(rays_per_case: usize, seed: u64, scanned: Option<&Scene>) -> Vec<Ca
             ));
         }
         cases.push(Case {
-            name: "plate 16x16, axis-aligned ±0 rays at grid lines".into(),
-            failure: "leaks",
-            scene: mesh_scene("plate", &pp, &pt),
-            rays,
             watertight_promise: true,
-            edge_pairs: Vec::new(),
+            ..Case::new(
+                "plate 16x16, axis-aligned ±0 rays at grid lines",
+                "leaks",
+                mesh_scene("plate", &pp, &pt),
+                rays,
+            )
         });
 
         // Rays in the plate's plane, and parallel just above it.
@@ -483,14 +503,12 @@ pub fn cases(rays_per_case: usize, seed: u64, scanned: Option<&Scene>) -> Vec<Ca
             };
             rays.push((Ray::new(Vec3::new(-2.0, y, z), Vec3::X), expect));
         }
-        cases.push(Case {
-            name: "plate, rays parallel to the plane (in it, and 1e-3 above)".into(),
-            failure: "false hits above",
-            scene: mesh_scene("plate", &pp, &pt),
+        cases.push(Case::new(
+            "plate, rays parallel to the plane (in it, and 1e-3 above)",
+            "false hits above",
+            mesh_scene("plate", &pp, &pt),
             rays,
-            watertight_promise: false,
-            edge_pairs: Vec::new(),
-        });
+        ));
 
         // Grazing rays at 1e-2 .. 1e-5 radians to an interior point.
         let mut rays = Vec::new();
@@ -508,14 +526,12 @@ pub fn cases(rays_per_case: usize, seed: u64, scanned: Option<&Scene>) -> Vec<Ca
                 Expect::HitAt(dist, 1e-3),
             ));
         }
-        cases.push(Case {
-            name: "plate, grazing rays 1e-2..1e-5 rad".into(),
-            failure: "misses or t err > 1e-3",
-            scene: mesh_scene("plate", &pp, &pt),
+        cases.push(Case::new(
+            "plate, grazing rays 1e-2..1e-5 rad",
+            "misses or t err > 1e-3",
+            mesh_scene("plate", &pp, &pt),
             rays,
-            watertight_promise: false,
-            edge_pairs: Vec::new(),
-        });
+        ));
     }
 
     // Tiny and huge triangles: interior points must be hit at the right t,
@@ -550,14 +566,12 @@ pub fn cases(rays_per_case: usize, seed: u64, scanned: Option<&Scene>) -> Vec<Ca
             };
             rays.push((Ray::new(target - dir * dist, dir), expect));
         }
-        cases.push(Case {
-            name: format!("single triangle of size {scale:.0e}"),
-            failure: "wrong answers",
-            scene: mesh_scene("triangle", &tri, &[[0, 1, 2]]),
+        cases.push(Case::new(
+            format!("single triangle of size {scale:.0e}"),
+            "wrong answers",
+            mesh_scene("triangle", &tri, &[[0, 1, 2]]),
             rays,
-            watertight_promise: false,
-            edge_pairs: Vec::new(),
-        });
+        ));
     }
 
     // Zero-area and needle triangles inside a mesh.
@@ -588,14 +602,12 @@ pub fn cases(rays_per_case: usize, seed: u64, scanned: Option<&Scene>) -> Vec<Ca
             };
             rays.push((Ray::new(Vec3::new(x, y, 2.0), -Vec3::Z), expect));
         }
-        cases.push(Case {
-            name: "zero-area and needle triangles in a mesh".into(),
-            failure: "false hits",
-            scene: mesh_scene("degenerate", &positions, &tris),
+        cases.push(Case::new(
+            "zero-area and needle triangles in a mesh",
+            "false hits",
+            mesh_scene("degenerate", &positions, &tris),
             rays,
-            watertight_promise: false,
-            edge_pairs: Vec::new(),
-        });
+        ));
     }
 
     // Secondary rays leaving a convex surface: any hit is a
@@ -610,14 +622,12 @@ pub fn cases(rays_per_case: usize, seed: u64, scanned: Option<&Scene>) -> Vec<Ca
             let moved: Vec<Vec3> = sp.iter().map(|p| *p + shift).collect();
             let scene = mesh_scene("icosphere", &moved, &st);
             let rays = leaving_rays(&scene, shift, n, seed + 6, rule);
-            cases.push(Case {
-                name: format!("rays leaving an icosphere at {offset:.0e}, {label}"),
-                failure: "self-intersections",
+            cases.push(Case::new(
+                format!("rays leaving an icosphere at {offset:.0e}, {label}"),
+                "self-intersections",
                 scene,
                 rays,
-                watertight_promise: false,
-                edge_pairs: Vec::new(),
-            });
+            ));
         }
     }
 
@@ -648,14 +658,12 @@ pub fn cases(rays_per_case: usize, seed: u64, scanned: Option<&Scene>) -> Vec<Ca
             };
             rays.push(ray);
         }
-        cases.push(Case {
-            name: format!("sphere r={radius:.0e}: inside, outside, tangent"),
-            failure: "wrong t (inside/outside)",
+        cases.push(Case::new(
+            format!("sphere r={radius:.0e}: inside, outside, tangent"),
+            "wrong t (inside/outside)",
             scene,
             rays,
-            watertight_promise: false,
-            edge_pairs: Vec::new(),
-        });
+        ));
     }
 
     // NaN and infinite rays: reported as misses, never a crash.
@@ -684,14 +692,12 @@ pub fn cases(rays_per_case: usize, seed: u64, scanned: Option<&Scene>) -> Vec<Ca
             };
             rays.push((ray, expect));
         }
-        cases.push(Case {
-            name: "NaN / infinite / zero-direction rays".into(),
-            failure: "answers other than a miss",
-            scene: mesh_scene("plate", &pp, &pt),
+        cases.push(Case::new(
+            "NaN / infinite / zero-direction rays",
+            "answers other than a miss",
+            mesh_scene("plate", &pp, &pt),
             rays,
-            watertight_promise: false,
-            edge_pairs: Vec::new(),
-        });
+        ));
     }
     cases
 }
