@@ -93,14 +93,6 @@ impl Camera {
         let dir = (self.right * sx + self.up * sy - self.back).normalize();
         Ray::new(self.position, dir)
     }
-
-    /// Horizontal and vertical field of view in degrees.
-    pub fn fov_degrees(&self) -> (f32, f32) {
-        (
-            (2.0 * self.tan_half_x.atan()).to_degrees(),
-            (2.0 * self.tan_half_y.atan()).to_degrees(),
-        )
-    }
 }
 
 /// Half-angle tangents that contain the file's view at the image aspect.
