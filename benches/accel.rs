@@ -1,17 +1,13 @@
-//! Criterion benchmarks: BVH builds (native variants, Embree build
-//! qualities) and traces (camera, shadow, bounce rays; one thread; the same
-//! pre-generated rays for every backend) on a small, a medium and a large
-//! shared scene. `cargo bench` (needs ../shared/scenes or HYBRID_SCENES).
+//! Criterion benchmarks: every build variant of `accel::config` and the
+//! compared backends' traces (the report's ray kinds; one thread; the same
+//! pre-generated rays for every backend) on the report's scenes.
+//! `cargo bench` (needs ../shared/scenes or HYBRID_SCENES).
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
 
-use hybrid::accel::embree::{BuildQuality, EmbreeAccel, EmbreeOptions};
-use hybrid::accel::native::bvh::BuildMethod;
-use hybrid::accel::native::triangle::TriangleMode;
-use hybrid::accel::native::{NativeBvh, NativeOptions};
-use hybrid::parity::rays;
-use hybrid::report::measure::{trace_all, Query};
-use hybrid::report::SCENES;
+use hybrid::accel::config::{BackendConfig, BUILD_VARIANTS, COMPARED};
+use hybrid::report::budget::SCENES;
+use hybrid::report::measure::{ray_sets, trace_all};
 use hybrid::scene::{collada, NormalMode, Scene};
 
 fn scenes() -> Vec<(String, Scene)> {
@@ -39,38 +35,11 @@ fn builds(c: &mut Criterion) {
     group.sample_size(10);
     for (name, scene) in scenes() {
         group.throughput(Throughput::Elements(scene.primitive_count() as u64));
-        for (label, method, triangle) in [
-            ("native-sah", BuildMethod::Sah, TriangleMode::MollerTrumbore),
-            (
-                "native-sah-watertight",
-                BuildMethod::Sah,
-                TriangleMode::Watertight,
-            ),
-            (
-                "native-median",
-                BuildMethod::Median,
-                TriangleMode::MollerTrumbore,
-            ),
-        ] {
-            let opts = NativeOptions {
-                method,
-                triangle,
-                ..NativeOptions::default()
-            };
+        for config in &BUILD_VARIANTS {
+            let label = config.label().replace(' ', "-");
             group.bench_with_input(BenchmarkId::new(label, &name), &scene, |b, s| {
-                b.iter(|| NativeBvh::build(s, &opts))
+                b.iter(|| config.build(s).expect("builds"))
             });
-        }
-        for quality in [BuildQuality::Low, BuildQuality::Medium, BuildQuality::High] {
-            let opts = EmbreeOptions {
-                quality,
-                ..EmbreeOptions::default()
-            };
-            group.bench_with_input(
-                BenchmarkId::new(format!("embree-{quality:?}"), &name),
-                &scene,
-                |b, s| b.iter(|| EmbreeAccel::build(s, &opts).expect("embree builds")),
-            );
         }
     }
     group.finish();
@@ -80,33 +49,19 @@ fn traces(c: &mut Criterion) {
     let mut group = c.benchmark_group("trace");
     group.sample_size(20);
     for (name, scene) in scenes() {
-        let native = NativeBvh::build(&scene, &NativeOptions::default());
-        let embree = EmbreeAccel::build(&scene, &EmbreeOptions::default()).expect("embree builds");
-        let sets = [
-            (
-                "camera",
-                Query::Closest,
-                rays::camera_rays(&scene, 20_000, 1),
-            ),
-            (
-                "shadow",
-                Query::Occluded,
-                rays::shadow_rays(&scene, &native, 20_000, 2),
-            ),
-            (
-                "bounce",
-                Query::Closest,
-                rays::bounce_rays(&scene, &native, 20_000, 3),
-            ),
-        ];
-        for (kind, query, set) in &sets {
-            group.throughput(Throughput::Elements(set.len() as u64));
-            group.bench_function(BenchmarkId::new(format!("native-{kind}"), &name), |b| {
-                b.iter(|| trace_all(&native, set, *query, 1))
-            });
-            group.bench_function(BenchmarkId::new(format!("embree-{kind}"), &name), |b| {
-                b.iter(|| trace_all(&embree, set, *query, 1))
-            });
+        let backends: Vec<_> = COMPARED
+            .iter()
+            .map(|c| (c.kind(), c.build(&scene).expect("builds")))
+            .collect();
+        let finder = BackendConfig::NATIVE.build(&scene).expect("builds");
+        for set in ray_sets(&scene, &finder, 20_000) {
+            group.throughput(Throughput::Elements(set.rays.len() as u64));
+            for (kind, accel) in &backends {
+                group.bench_function(
+                    BenchmarkId::new(format!("{kind}-{}", set.kind), &name),
+                    |b| b.iter(|| trace_all(accel, &set.rays, set.query, 1)),
+                );
+            }
         }
     }
     group.finish();

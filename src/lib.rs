@@ -8,8 +8,10 @@
 //! - [`parity`]: the cross-backend agreement and numerical-stability suite.
 //! - [`report`]: the performance comparison report.
 //! - [`cli`]: the command-line front end.
+//! - [`choice`]: one spelling for every named option value.
 
 pub mod accel;
+pub mod choice;
 pub mod cli;
 pub mod parity;
 pub mod render;

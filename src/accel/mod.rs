@@ -9,62 +9,20 @@
 //! The trait answers only "which primitive, where" ([`Hit`]); the shading
 //! data of a hit are derived above it, from the scene
 //! ([`crate::scene::Scene::surface_point`]), the same way for every backend.
-//! [`Backend`] is the tagged union the program chooses at run time: the
-//! backend is swapped in that one place.
+//! [`Backend`] is the tagged union the program chooses at run time; which
+//! one, with which options, is a [`BackendConfig`] (`config.rs`), the one
+//! place that names them. [`ray`] holds the rules every consumer shares.
 
 pub mod brute;
+pub mod config;
 pub mod embree;
 pub mod native;
+pub mod ray;
 
 use glam::Vec3;
 
-use crate::scene::Scene;
-
-/// A ray `origin + t * dir` for `t` in `[t_min, t_max]`.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Ray {
-    pub origin: Vec3,
-    pub dir: Vec3,
-    pub t_min: f32,
-    pub t_max: f32,
-}
-
-impl Ray {
-    pub fn new(origin: Vec3, dir: Vec3) -> Ray {
-        Ray {
-            origin,
-            dir,
-            t_min: 0.0,
-            t_max: f32::INFINITY,
-        }
-    }
-
-    pub fn segment(origin: Vec3, dir: Vec3, t_max: f32) -> Ray {
-        Ray {
-            origin,
-            dir,
-            t_min: 0.0,
-            t_max,
-        }
-    }
-
-    #[inline]
-    pub fn at(&self, t: f32) -> Vec3 {
-        self.origin + self.dir * t
-    }
-
-    /// Rays with NaN or infinite components, a zero direction or an empty
-    /// interval are reported as misses by every backend, never traced.
-    #[inline]
-    pub fn is_traceable(&self) -> bool {
-        self.origin.is_finite()
-            && self.dir.is_finite()
-            && self.dir != Vec3::ZERO
-            && self.t_min >= 0.0
-            && self.t_min <= self.t_max
-            && !self.t_max.is_nan()
-    }
-}
+pub use self::config::BackendConfig;
+pub use self::ray::Ray;
 
 /// The closest hit along a ray: what every backend reports.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -126,31 +84,6 @@ pub trait Accel: Sync + Send {
     fn stats(&self) -> AccelStats;
 }
 
-/// Which backend to build.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
-pub enum AccelKind {
-    Native,
-    Embree,
-    None,
-}
-
-impl AccelKind {
-    pub fn name(self) -> &'static str {
-        match self {
-            AccelKind::Native => "native",
-            AccelKind::Embree => "embree",
-            AccelKind::None => "none",
-        }
-    }
-}
-
-/// Options for building any backend.
-#[derive(Clone, Copy, Debug, Default)]
-pub struct AccelOptions {
-    pub native: native::NativeOptions,
-    pub embree: embree::EmbreeOptions,
-}
-
 /// The backend chosen at run time, as a tagged union: static dispatch on
 /// the per-ray path, one match per query.
 pub enum Backend<'s> {
@@ -164,23 +97,6 @@ pub enum Backend<'s> {
 pub enum AccelError {
     #[error("embree: {0}")]
     Embree(String),
-}
-
-impl<'s> Backend<'s> {
-    /// Builds the chosen backend over `scene`.
-    pub fn build(
-        kind: AccelKind,
-        scene: &'s Scene,
-        options: &AccelOptions,
-    ) -> Result<Backend<'s>, AccelError> {
-        Ok(match kind {
-            AccelKind::Native => Backend::Native(native::NativeBvh::build(scene, &options.native)),
-            AccelKind::Embree => {
-                Backend::Embree(embree::EmbreeAccel::build(scene, &options.embree)?)
-            }
-            AccelKind::None => Backend::Brute(brute::BruteForce::build(scene)),
-        })
-    }
 }
 
 impl Accel for Backend<'_> {

@@ -19,8 +19,10 @@ mod report;
 
 use std::path::{Path, PathBuf};
 
+use clap::builder::{PossibleValuesParser, TypedValueParser};
 use clap::{Parser, Subcommand};
 
+use crate::choice::Choice;
 use crate::scene::{collada, NormalMode, Scene};
 
 /// The project's own default scene (`dae/cornell.dae`), built into the
@@ -72,6 +74,13 @@ pub fn main() -> i32 {
             2
         }
     }
+}
+
+/// A clap parser for a library [`Choice`]: its values are the choice's
+/// spellings, so help texts and errors list them.
+pub fn choice<T: Choice + Send + Sync>() -> impl TypedValueParser<Value = T> {
+    PossibleValuesParser::new(T::ALL.iter().map(|v| v.name()))
+        .try_map(|name| T::from_name(&name).ok_or_else(|| format!("unknown value '{name}'")))
 }
 
 /// Loads `path`, or the built-in default scene when there is none.

@@ -6,6 +6,7 @@ use std::path::PathBuf;
 
 use clap::Args;
 
+use crate::accel::BackendConfig;
 use crate::parity::{format_tables, hard, run_scene};
 use crate::scene::NormalMode;
 
@@ -44,10 +45,10 @@ pub fn run(args: &ParityArgs) -> Result<bool, String> {
             .flat_map(|r| {
                 r.outcomes.iter().filter_map(move |(mode, o)| {
                     let promise_broken = r.watertight_promise
-                        && *mode == hard::Mode::NativeWatertight
+                        && *mode == BackendConfig::NATIVE_WATERTIGHT
                         && o.failures > 0;
                     (o.nans > 0 || o.panics > 0 || promise_broken)
-                        .then(|| format!("{} on {}", mode.name(), r.name))
+                        .then(|| format!("{} on {}", mode.label(), r.name))
                 })
             })
             .collect();

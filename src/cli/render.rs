@@ -6,24 +6,34 @@ use std::time::Instant;
 
 use clap::Args;
 
+use super::choice;
 use crate::accel::embree::{BuildQuality, EmbreeOptions};
 use crate::accel::native::bvh::BuildMethod;
 use crate::accel::native::triangle::TriangleMode;
 use crate::accel::native::NativeOptions;
-use crate::accel::{Accel, AccelKind, AccelOptions, Backend};
+use crate::accel::{Accel, BackendConfig};
+use crate::choice::Choice;
 use crate::render::camera::CameraMode;
 use crate::render::film::{rate_path, ToneMap};
 use crate::render::integrator::{BounceView, DirectEstimator, PathSettings, Shading};
 use crate::render::{render, Adaptive, Cell, Progress, RenderSettings};
 use crate::scene::NormalMode;
 
+/// `--accel`: which backend; its options come from the backend's own flags.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum AccelArg {
+    Native,
+    Embree,
+    None,
+}
+
 #[derive(Args, Debug, Clone)]
 pub struct RenderArgs {
     /// Scene file (.dae); the project's default scene when omitted.
     pub scene: Option<PathBuf>,
     /// Acceleration backend.
-    #[arg(long, value_enum, default_value_t = AccelKind::Native)]
-    pub accel: AccelKind,
+    #[arg(long, value_enum, default_value_t = AccelArg::Native)]
+    pub accel: AccelArg,
     /// Colour by the shading normal (n * 0.5 + 0.5) instead of path tracing.
     #[arg(long)]
     pub normals: bool,
@@ -31,7 +41,7 @@ pub struct RenderArgs {
     #[arg(long)]
     pub flat: bool,
     /// Camera placement: the reference framing, or the camera node's own.
-    #[arg(long, value_enum, default_value_t = CameraMode::Canonical)]
+    #[arg(long, value_parser = choice::<CameraMode>(), default_value = CameraMode::default().name())]
     pub camera: CameraMode,
     /// Resolution.
     #[arg(short = 'r', num_args = 2, value_names = ["W", "H"], default_values_t = [480u32, 360])]
@@ -64,7 +74,7 @@ pub struct RenderArgs {
     #[arg(short = 'o', default_value_t = 1, value_parser = clap::value_parser!(u8).range(0..=1))]
     pub accumulate: u8,
     /// Show only direct or only indirect light.
-    #[arg(long, value_enum, default_value_t = BounceView::All)]
+    #[arg(long, value_parser = choice::<BounceView>(), default_value = BounceView::default().name())]
     pub only: BounceView,
     /// Russian roulette with this continuation probability (0, 1].
     #[arg(long = "rr", value_name = "P")]
@@ -74,16 +84,16 @@ pub struct RenderArgs {
     #[arg(short = 'a', num_args = 2, value_names = ["BATCH", "TOL"])]
     pub adaptive: Option<Vec<f64>>,
     /// Native backend: ray/triangle test.
-    #[arg(long, value_enum, default_value_t = TriangleMode::MollerTrumbore)]
+    #[arg(long, value_parser = choice::<TriangleMode>(), default_value = TriangleMode::default().name())]
     pub triangle: TriangleMode,
     /// Native backend: build method.
-    #[arg(long, value_enum, default_value_t = BuildMethod::Sah)]
+    #[arg(long, value_parser = choice::<BuildMethod>(), default_value = BuildMethod::default().name())]
     pub build: BuildMethod,
     /// Native backend: largest leaf.
-    #[arg(long, default_value_t = 4)]
+    #[arg(long, default_value_t = NativeOptions::DEFAULT.max_leaf)]
     pub leaf: usize,
     /// Embree backend: build quality.
-    #[arg(long, value_enum, default_value_t = BuildQuality::Medium)]
+    #[arg(long, value_parser = choice::<BuildQuality>(), default_value = BuildQuality::default().name())]
     pub quality: BuildQuality,
     /// Embree backend: robust scene flag.
     #[arg(long)]
@@ -196,19 +206,21 @@ impl RenderArgs {
         })
     }
 
-    pub fn accel_options(&self) -> AccelOptions {
-        AccelOptions {
-            native: NativeOptions {
+    /// The backend `--accel` chose, with its own flags.
+    pub fn backend(&self) -> BackendConfig {
+        match self.accel {
+            AccelArg::Native => BackendConfig::Native(NativeOptions {
                 triangle: self.triangle,
                 method: self.build,
                 max_leaf: self.leaf,
                 wide8: !self.no_avx,
-            },
-            embree: EmbreeOptions {
+            }),
+            AccelArg::Embree => BackendConfig::Embree(EmbreeOptions {
                 quality: self.quality,
                 robust: self.robust,
                 threads: self.threads,
-            },
+            }),
+            AccelArg::None => BackendConfig::Brute,
         }
     }
 
@@ -267,11 +279,11 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
         start.elapsed().as_secs_f64() * 1e3
     );
 
-    let accel =
-        Backend::build(args.accel, &scene, &args.accel_options()).map_err(|e| e.to_string())?;
+    let backend = args.backend();
+    let accel = backend.build(&scene).map_err(|e| e.to_string())?;
     let stats = accel.stats();
-    match args.accel {
-        AccelKind::Native => say!(
+    match backend {
+        BackendConfig::Native(_) => say!(
             "native BVH built in {:.1} ms: {} nodes, {} leaves, depth {}, SAH cost {:.2}, {:.1} MiB ({})",
             stats.build_ms,
             stats.nodes,
@@ -281,17 +293,17 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
             stats.memory_bytes as f64 / (1 << 20) as f64,
             stats.details
         ),
-        AccelKind::Embree => say!(
+        BackendConfig::Embree(_) => say!(
             "embree scene built in {:.1} ms: {}, {:.1} MiB",
             stats.build_ms,
             stats.details,
             stats.memory_bytes as f64 / (1 << 20) as f64
         ),
-        AccelKind::None if stats.primitives > crate::parity::BRUTE_FORCE_LIMIT => say!(
+        BackendConfig::Brute if !backend.suits(&scene) => say!(
             "no acceleration structure: brute force over {} primitives will be slow (every ray tests every primitive)",
             stats.primitives
         ),
-        AccelKind::None => say!("no acceleration structure (brute force over {} primitives)", stats.primitives),
+        BackendConfig::Brute => say!("no acceleration structure (brute force over {} primitives)", stats.primitives),
     }
 
     let rows = settings.cell.map_or(settings.height, |c| c.height);
@@ -326,7 +338,7 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
         c.rays,
         result.mrays_per_second()
     );
-    if args.accel != AccelKind::Embree && c.rays > 0 {
+    if !matches!(backend, BackendConfig::Embree(_)) && c.rays > 0 {
         line += &format!(
             ", {:.1} box tests and {:.1} primitive tests per ray",
             c.box_tests as f64 / c.rays as f64,

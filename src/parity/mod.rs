@@ -11,10 +11,8 @@ pub mod rays;
 
 use glam::Vec3;
 
-use crate::accel::embree::EmbreeOptions;
-use crate::accel::native::triangle::TriangleMode;
-use crate::accel::native::NativeOptions;
-use crate::accel::{Accel, AccelError, AccelKind, AccelOptions, Backend, Hit, Ray, TraceCounters};
+use crate::accel::config::{PARITY_CANDIDATES, PARITY_REFERENCE};
+use crate::accel::{Accel, AccelError, Backend, BackendConfig, Hit, Ray, TraceCounters};
 use crate::scene::Scene;
 
 /// Hits agree in distance when
@@ -38,8 +36,6 @@ pub const MIN_PRIMITIVE_AGREEMENT: f64 = 0.999;
 pub const MIN_NORMAL_AGREEMENT: f64 = 0.999;
 /// Grazing rays skim surfaces by design; they get a looser bound.
 pub const MIN_GRAZING_AGREEMENT: f64 = 0.99;
-/// Brute force joins the comparison up to this many primitives.
-pub const BRUTE_FORCE_LIMIT: usize = 5_000;
 
 /// One backend configuration under test.
 pub struct Candidate<'s> {
@@ -47,64 +43,24 @@ pub struct Candidate<'s> {
     pub accel: Backend<'s>,
 }
 
-/// The reference and the candidates for `scene`: native watertight as the
-/// reference; native Möller–Trumbore, Embree (default and robust) and, on
-/// small scenes, brute force as candidates.
-pub fn candidates(scene: &Scene) -> Result<(Candidate<'_>, Vec<Candidate<'_>>), AccelError> {
-    let with = |kind: AccelKind, native: NativeOptions, embree: EmbreeOptions| {
-        Backend::build(kind, scene, &AccelOptions { native, embree })
-    };
-    let nat = |triangle| NativeOptions {
-        triangle,
-        ..NativeOptions::default()
-    };
-    let reference = Candidate {
-        name: "native watertight".into(),
-        accel: with(
-            AccelKind::Native,
-            nat(TriangleMode::Watertight),
-            EmbreeOptions::default(),
-        )?,
-    };
-    let mut list = vec![
-        Candidate {
-            name: "native möller-trumbore".into(),
-            accel: with(
-                AccelKind::Native,
-                nat(TriangleMode::MollerTrumbore),
-                EmbreeOptions::default(),
-            )?,
-        },
-        Candidate {
-            name: "embree".into(),
-            accel: with(
-                AccelKind::Embree,
-                NativeOptions::default(),
-                EmbreeOptions::default(),
-            )?,
-        },
-        Candidate {
-            name: "embree robust".into(),
-            accel: with(
-                AccelKind::Embree,
-                NativeOptions::default(),
-                EmbreeOptions {
-                    robust: true,
-                    ..EmbreeOptions::default()
-                },
-            )?,
-        },
-    ];
-    if scene.primitive_count() <= BRUTE_FORCE_LIMIT {
-        list.push(Candidate {
-            name: "none (brute force)".into(),
-            accel: with(
-                AccelKind::None,
-                NativeOptions::default(),
-                EmbreeOptions::default(),
-            )?,
-        });
+impl<'s> Candidate<'s> {
+    pub fn build(config: &BackendConfig, scene: &'s Scene) -> Result<Candidate<'s>, AccelError> {
+        Ok(Candidate {
+            name: config.label(),
+            accel: config.build(scene)?,
+        })
     }
+}
+
+/// The reference ([`PARITY_REFERENCE`]) and the candidates
+/// ([`PARITY_CANDIDATES`] that suit the scene) for `scene`.
+pub fn candidates(scene: &Scene) -> Result<(Candidate<'_>, Vec<Candidate<'_>>), AccelError> {
+    let reference = Candidate::build(&PARITY_REFERENCE, scene)?;
+    let list = PARITY_CANDIDATES
+        .iter()
+        .filter(|c| c.suits(scene))
+        .map(|c| Candidate::build(c, scene))
+        .collect::<Result<_, _>>()?;
     Ok((reference, list))
 }
 
@@ -301,8 +257,9 @@ pub fn format_tables(tables: &[RayKindTable]) -> String {
     let mut out = String::new();
     for t in tables {
         out += &format!(
-            "\n{} rays (reference: native watertight; t within {:.0e} relative; pass: >= {:.1}% agreement)\n\n| backend | rays | hit/miss agree | t agree | same primitive (ties) | geometric normal max | shading normal max | pass |\n|---|---|---|---|---|---|---|---|\n",
+            "\n{} rays (reference: {}; t within {:.0e} relative; pass: >= {:.1}% agreement)\n\n| backend | rays | hit/miss agree | t agree | same primitive (ties) | geometric normal max | shading normal max | pass |\n|---|---|---|---|---|---|---|---|\n",
             t.kind,
+            PARITY_REFERENCE.label(),
             t.t_relative,
             t.minimum * 100.0
         );

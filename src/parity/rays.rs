@@ -5,7 +5,6 @@ use glam::Vec3;
 
 use crate::accel::{Accel, Ray, TraceCounters};
 use crate::render::camera::{Camera, CameraMode};
-use crate::render::integrator::spawn_ray;
 use crate::render::light::sample_li;
 pub use crate::render::sampling::uniform_sphere;
 use crate::render::sampling::{cosine_hemisphere, Frame, Rng};
@@ -88,7 +87,7 @@ pub fn bounce_rays<A: Accel>(scene: &Scene, reference: &A, n: usize, seed: u64) 
         .map(|(p, ng)| {
             let (u, v) = rng.next_2d();
             let dir = Frame::new(ng).to_world(cosine_hemisphere(u, v));
-            spawn_ray(p, ng, dir, f32::INFINITY)
+            Ray::spawn(p, ng, dir, f32::INFINITY)
         })
         .collect()
 }
@@ -107,7 +106,7 @@ pub fn shadow_rays<A: Accel>(scene: &Scene, reference: &A, n: usize, seed: u64) 
             let ls = sample_li(light, p, ng, &mut rng)?;
             // Only lights above the surface get a shadow ray, as in the
             // integrator.
-            (ls.wi.dot(ng) > 0.0).then(|| spawn_ray(p, ng, ls.wi, ls.distance * (1.0 - 1e-4)))
+            (ls.wi.dot(ng) > 0.0).then(|| Ray::shadow(p, ng, ls.wi, ls.distance))
         })
         .collect()
 }

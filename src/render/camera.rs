@@ -13,12 +13,15 @@ use glam::{Mat4, Vec3};
 use crate::accel::Ray;
 use crate::scene::{CameraSpec, Scene};
 
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, clap::ValueEnum)]
+/// Where the camera stands: the reference framing or the node's own.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
 pub enum CameraMode {
     #[default]
     Canonical,
     Node,
 }
+
+crate::choice!(CameraMode { Canonical => "canonical", Node => "node" });
 
 #[derive(Clone, Copy, Debug)]
 pub struct Camera {

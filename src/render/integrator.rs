@@ -32,7 +32,7 @@ pub enum DirectEstimator {
 }
 
 /// Which bounces an image shows.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, clap::ValueEnum)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
 pub enum BounceView {
     #[default]
     All,
@@ -41,6 +41,8 @@ pub enum BounceView {
     /// Light that scattered at least twice.
     Indirect,
 }
+
+crate::choice!(BounceView { All => "all", Direct => "direct", Indirect => "indirect" });
 
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct PathSettings {
@@ -82,30 +84,6 @@ impl PathSettings {
                 BounceView::Direct => bounce <= 1,
                 BounceView::Indirect => bounce >= 2,
             }
-    }
-}
-
-/// Relative offset of the spawn rule: a secondary ray starts
-/// `SPAWN_EPSILON * (1 + max |p_i|)` off the surface along the geometric
-/// normal, on the side it leaves to, with `t_min = 0`. Scaling with the
-/// magnitude of `p` keeps the offset above the rounding error of the hit
-/// point (a few ulps of `|p|`) for scenes far from the origin.
-pub const SPAWN_EPSILON: f32 = 1e-5;
-
-/// A ray leaving `p` (on a surface with geometric normal `ng`) in `dir`.
-#[inline]
-pub fn spawn_ray(p: Vec3, ng: Vec3, dir: Vec3, t_max: f32) -> Ray {
-    let eps = SPAWN_EPSILON * (1.0 + p.abs().max_element());
-    let offset = if dir.dot(ng) >= 0.0 {
-        ng * eps
-    } else {
-        -ng * eps
-    };
-    Ray {
-        origin: p + offset,
-        dir,
-        t_min: 0.0,
-        t_max,
     }
 }
 
@@ -227,7 +205,7 @@ impl<'a, A: Accel> Integrator<'a, A> {
             }
             let wi = frame.to_world(bs.wi);
             specular = bs.specular;
-            ray = spawn_ray(sp.position, ng, wi, f32::INFINITY);
+            ray = Ray::spawn(sp.position, ng, wi, f32::INFINITY);
             depth += 1;
         }
         total
@@ -279,7 +257,7 @@ impl<'a, A: Accel> Integrator<'a, A> {
                     if f == Vec3::ZERO {
                         continue;
                     }
-                    let ray = spawn_ray(p, ng, wi, f32::INFINITY);
+                    let ray = Ray::spawn(p, ng, wi, f32::INFINITY);
                     let incoming = match self.accel.closest_hit(&ray, counters) {
                         Some(hit) => {
                             let material =
@@ -320,9 +298,7 @@ impl<'a, A: Accel> Integrator<'a, A> {
         if f == Vec3::ZERO {
             return Vec3::ZERO;
         }
-        // Stop just short of the sampled point so the light's own surface
-        // does not shadow it.
-        let shadow = spawn_ray(p, ng, ls.wi, ls.distance * (1.0 - 1e-4));
+        let shadow = Ray::shadow(p, ng, ls.wi, ls.distance);
         if self.accel.occluded(&shadow, counters) {
             return Vec3::ZERO;
         }

@@ -1,33 +1,173 @@
-//! Image grids for the report's gallery.
+//! The gallery: the course write-up's series rendered on the native
+//! backend (normal shading, light samples, bounces, Russian roulette,
+//! samples per pixel, adaptive sampling with its rate image).
 
 use std::path::Path;
 
-use image::{Rgb, RgbImage};
+use image::RgbImage;
 
-/// Lays out equally sized RGB images in rows of `columns`, separated by a
-/// 4-pixel white gutter, and writes a PNG.
-pub fn write_grid(path: &Path, images: &[RgbImage], columns: usize) -> Result<(), String> {
-    let Some(first) = images.first() else {
-        return Err(format!("{}: no images", path.display()));
-    };
-    let (w, h) = first.dimensions();
-    let gap = 4u32;
-    let cols = columns.max(1).min(images.len()) as u32;
-    let rows = images.len().div_ceil(cols as usize) as u32;
-    let mut grid = RgbImage::from_pixel(
-        cols * w + (cols - 1) * gap,
-        rows * h + (rows - 1) * gap,
-        Rgb([255, 255, 255]),
-    );
-    for (i, img) in images.iter().enumerate() {
-        let (c, r) = (i as u32 % cols, i as u32 / cols);
-        image::imageops::replace(
-            &mut grid,
-            img,
-            (c * (w + gap)) as i64,
-            (r * (h + gap)) as i64,
-        );
+use super::budget::{Budget, NORMALS_SCENES, SAMPLES_SCENE, SERIES_SCENE};
+use super::grid::write_grid;
+use super::load;
+use crate::accel::BackendConfig;
+use crate::render::film::{rate_colour, Film, ToneMap};
+use crate::render::integrator::{PathSettings, Shading};
+use crate::render::{render, Adaptive, RenderSettings, Silent};
+use crate::scene::Scene;
+
+struct Shooter {
+    width: u32,
+    height: u32,
+    threads: usize,
+}
+
+impl Shooter {
+    fn film(
+        &self,
+        scene: &Scene,
+        samples: u32,
+        shading: Shading,
+        adaptive: Option<Adaptive>,
+    ) -> Result<Film, String> {
+        let settings = RenderSettings {
+            width: self.width,
+            height: self.height,
+            samples,
+            threads: self.threads,
+            seed: 1,
+            shading,
+            adaptive,
+            ..RenderSettings::default()
+        };
+        let accel = BackendConfig::NATIVE
+            .build(scene)
+            .map_err(|e| e.to_string())?;
+        Ok(render(scene, &accel, &settings, &Silent).film)
     }
-    grid.save_with_format(path, image::ImageFormat::Png)
-        .map_err(|e| format!("{}: {e}", path.display()))
+}
+
+fn image(film: &Film, map: ToneMap) -> RgbImage {
+    RgbImage::from_raw(film.width, film.height, film.to_rgb8(map)).expect("film size")
+}
+
+fn path(max_bounces: u32, light_samples: u32) -> PathSettings {
+    PathSettings {
+        max_bounces,
+        light_samples,
+        ..PathSettings::default()
+    }
+}
+
+/// Renders the gallery into `out` and returns its Markdown.
+pub fn section(dir: &Path, out: &Path, budget: &Budget, threads: usize) -> Result<String, String> {
+    let (width, height) = budget.gallery;
+    let shooter = Shooter {
+        width,
+        height,
+        threads,
+    };
+    let shoot = |scene: &Scene, samples: u32, settings: PathSettings| {
+        shooter
+            .film(scene, samples, Shading::Path(settings), None)
+            .map(|f| image(&f, ToneMap::Reference))
+    };
+    let series = load(dir, SERIES_SCENE)?;
+    let samples_scene = load(dir, SAMPLES_SCENE)?;
+    let mut md = format!("## Gallery\n\nThe course write-up's series, rendered on the native backend at {width}x{height} (the Embree images are identical, see `docs/parity.md`).\n\n");
+
+    let normals = NORMALS_SCENES
+        .iter()
+        .map(|rel| {
+            let s = load(dir, rel)?;
+            Ok(image(
+                &shooter.film(&s, 4, Shading::Normals, None)?,
+                ToneMap::Identity,
+            ))
+        })
+        .collect::<Result<Vec<_>, String>>()?;
+    write_grid(&out.join("gallery_normals.png"), &normals, 4)?;
+    md += "Normal shading: CBspheres_lambertian, CBbunny, maxplanck, banana.\n\n![normals](gallery_normals.png)\n\n";
+
+    let lights = [1, 4, 16, 64]
+        .iter()
+        .map(|&l| shoot(&series, 1, path(1, l)))
+        .collect::<Result<Vec<_>, _>>()?;
+    write_grid(&out.join("gallery_light_samples.png"), &lights, 4)?;
+    md += "CBbunny, direct lighting at `-s 1` with `-l 1, 4, 16, 64`: the soft shadows' noise falls.\n\n![light samples](gallery_light_samples.png)\n\n";
+
+    let spp = budget.gallery_spp;
+    let mut bounces = Vec::new();
+    for accumulate in [false, true] {
+        for m in 0..=5 {
+            bounces.push(shoot(
+                &series,
+                spp,
+                PathSettings {
+                    accumulate,
+                    ..path(m, 1)
+                },
+            )?);
+        }
+    }
+    write_grid(&out.join("gallery_bounces.png"), &bounces, 6)?;
+    md += &format!("CBbunny at {spp} spp, `-m 0..5`: top row only the m-th bounce (`-o 0`), bottom row accumulated (`-o 1`).\n\n![bounces](gallery_bounces.png)\n\n");
+
+    let rr = [0, 1, 2, 3, 4, 100]
+        .iter()
+        .map(|&m| {
+            shoot(
+                &series,
+                spp,
+                PathSettings {
+                    russian_roulette: Some(0.7),
+                    ..path(m, 1)
+                },
+            )
+        })
+        .collect::<Result<Vec<_>, _>>()?;
+    write_grid(&out.join("gallery_russian_roulette.png"), &rr, 6)?;
+    md += "CBbunny with Russian roulette (continuation 0.7), `-m 0, 1, 2, 3, 4, 100`.\n\n![russian roulette](gallery_russian_roulette.png)\n\n";
+
+    let by_spp = budget
+        .spp_series
+        .iter()
+        .map(|&s| shoot(&samples_scene, s, path(3, 1)))
+        .collect::<Result<Vec<_>, _>>()?;
+    write_grid(&out.join("gallery_samples.png"), &by_spp, 4)?;
+    md += &format!(
+        "CBspheres_lambertian, 3 bounces, `-s {}`.\n\n![samples per pixel](gallery_samples.png)\n\n",
+        budget
+            .spp_series
+            .iter()
+            .map(|s| s.to_string())
+            .collect::<Vec<_>>()
+            .join(", ")
+    );
+
+    let (batch, tolerance, cap) = budget.adaptive_gallery;
+    let mut adaptive = Vec::new();
+    let mut mean_spp = Vec::new();
+    for scene in [&series, &samples_scene] {
+        let film = shooter.film(
+            scene,
+            cap,
+            Shading::Path(path(5, 1)),
+            Some(Adaptive { batch, tolerance }),
+        )?;
+        let rate: Vec<u8> = film
+            .samples
+            .iter()
+            .flat_map(|&n| rate_colour(n as f32 / cap as f32))
+            .collect();
+        mean_spp
+            .push(film.samples.iter().map(|&n| n as f64).sum::<f64>() / film.samples.len() as f64);
+        adaptive.push(image(&film, ToneMap::Reference));
+        adaptive.push(RgbImage::from_raw(width, height, rate).expect("film size"));
+    }
+    write_grid(&out.join("gallery_adaptive.png"), &adaptive, 4)?;
+    md += &format!(
+        "Adaptive sampling `-a {batch} {tolerance} -s {cap}`, 5 bounces: CBbunny and its sample rate (mean {:.0} spp), CBspheres_lambertian and its rate (mean {:.0} spp); blue = few samples, red = the cap.\n\n![adaptive](gallery_adaptive.png)\n",
+        mean_spp[0], mean_spp[1]
+    );
+    Ok(md)
 }

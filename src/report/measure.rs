@@ -1,11 +1,15 @@
-//! Timing: medians of warmed-up repeats, and ray throughput of a backend on
-//! a fixed ray set, single-threaded or on a pool.
+//! Timing: medians of warmed-up repeats, ray throughput of a backend on a
+//! fixed ray set, single-threaded or on a pool, and the ray sets the report
+//! and the benches measure.
 
 use std::time::Instant;
 
 use rayon::prelude::*;
 
+use super::table::Measured;
 use crate::accel::{Accel, Ray, TraceCounters};
+use crate::parity::rays;
+use crate::scene::Scene;
 
 /// Median and spread of repeated measurements.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
@@ -85,22 +89,59 @@ pub fn trace_all<A: Accel>(accel: &A, rays: &[Ray], query: Query, threads: usize
     rays.par_chunks(256).map(chunk).sum()
 }
 
-/// Million rays per second (median over repeats) of `accel` on `rays`.
+/// Million rays per second (median and range over repeats) of `accel` on
+/// `rays`.
 pub fn mrays<A: Accel>(
     accel: &A,
     rays: &[Ray],
     query: Query,
     threads: usize,
     repeats: usize,
-) -> (f64, Timing) {
+) -> Measured {
     let run = || trace_all(accel, rays, query, threads);
     let timing = if threads <= 1 {
         time_repeats(repeats, run)
     } else {
-        match rayon::ThreadPoolBuilder::new().num_threads(threads).build() {
-            Ok(pool) => pool.install(|| time_repeats(repeats, run)),
-            Err(_) => time_repeats(repeats, run),
-        }
+        on_threads(threads, || time_repeats(repeats, run))
     };
-    (rays.len() as f64 / timing.median.max(1e-12) / 1e6, timing)
+    Measured::per_second_millions(rays.len(), &timing)
+}
+
+/// Runs `f` on a rayon pool of `threads` threads (the global pool when
+/// such a pool cannot be made).
+pub fn on_threads<T: Send>(threads: usize, f: impl FnOnce() -> T + Send) -> T {
+    match rayon::ThreadPoolBuilder::new().num_threads(threads).build() {
+        Ok(pool) => pool.install(f),
+        Err(_) => f(),
+    }
+}
+
+/// A named set of rays and the query they exercise.
+pub struct RaySet {
+    pub kind: &'static str,
+    pub query: Query,
+    pub rays: Vec<Ray>,
+}
+
+/// The ray kinds the report and the benches trace, about `n` each: camera
+/// rays in tile order, shadow rays from camera hits towards light samples,
+/// and diffuse bounce rays from camera hits (hit points found by `finder`).
+pub fn ray_sets<A: Accel>(scene: &Scene, finder: &A, n: usize) -> Vec<RaySet> {
+    vec![
+        RaySet {
+            kind: "camera",
+            query: Query::Closest,
+            rays: rays::camera_rays(scene, n, 1),
+        },
+        RaySet {
+            kind: "shadow",
+            query: Query::Occluded,
+            rays: rays::shadow_rays(scene, finder, n, 2),
+        },
+        RaySet {
+            kind: "bounce",
+            query: Query::Closest,
+            rays: rays::bounce_rays(scene, finder, n, 3),
+        },
+    ]
 }

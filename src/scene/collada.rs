@@ -11,7 +11,8 @@ use std::path::Path;
 use glam::{Mat4, Vec3, Vec4};
 use roxmltree::{Document, Node};
 
-use super::{AreaLight, Bounds, CameraSpec, Light, Material, NormalMode, Scene, Sphere};
+use super::builder::SceneBuilder;
+use super::{AreaLight, CameraSpec, Light, Material, NormalMode, Scene};
 
 /// Why a scene could not be loaded: always names the file and, where there
 /// is one, the line and element.
@@ -68,13 +69,7 @@ pub fn load_str(text: &str, file: &str, normal_mode: NormalMode) -> Result<Scene
     })?;
     let mut loader = Loader::new(file, &doc);
     loader.load()?;
-    let mut scene = loader.scene;
-    scene.name = file.to_string();
-    scene.normal_mode = normal_mode;
-    if normal_mode == NormalMode::Smooth {
-        scene.mesh.compute_smooth_normals();
-    }
-    Ok(scene)
+    Ok(loader.builder.finish(normal_mode))
 }
 
 type Result<T, E = LoadError> = std::result::Result<T, E>;
@@ -83,7 +78,7 @@ struct Loader<'a, 'input> {
     file: &'a str,
     doc: &'a Document<'input>,
     ids: HashMap<&'a str, Node<'a, 'input>>,
-    scene: Scene,
+    builder: SceneBuilder,
     /// Material element id -> index in `scene.materials`.
     materials: HashMap<String, u32>,
     default_material: Option<u32>,
@@ -107,7 +102,7 @@ impl<'a, 'input> Loader<'a, 'input> {
             file,
             doc,
             ids,
-            scene: Scene::default(),
+            builder: SceneBuilder::new(file),
             materials: HashMap::new(),
             default_material: None,
             camera: None,
@@ -141,15 +136,7 @@ impl<'a, 'input> Loader<'a, 'input> {
         for node in elements(visual_scene).filter(|n| n.tag_name().name() == "node") {
             self.load_node(node, up)?;
         }
-        self.scene.framing_bounds = self.scene.bounds();
-        if self.scene.framing_bounds.is_empty() {
-            self.scene.framing_bounds = Bounds {
-                min: Vec3::splat(-1.0),
-                max: Vec3::splat(1.0),
-            };
-        }
-        self.scene.camera = self.camera.unwrap_or_default();
-        self.add_light_geometry();
+        self.builder.camera_spec(self.camera.unwrap_or_default());
         Ok(())
     }
 
@@ -283,11 +270,7 @@ impl<'a, 'input> Loader<'a, 'input> {
                 Some((_, m)) => *m,
                 None => self.default_material(),
             };
-            self.scene.spheres.push(Sphere {
-                center,
-                radius,
-                material,
-            });
+            self.builder.sphere(center, radius, material);
             return Ok(());
         }
         Err(self.error(
@@ -300,8 +283,7 @@ impl<'a, 'input> Loader<'a, 'input> {
         if let Some(m) = self.default_material {
             return m;
         }
-        let m = self.scene.materials.len() as u32;
-        self.scene.materials.push(Material::DEFAULT);
+        let m = self.builder.material(Material::DEFAULT);
         self.default_material = Some(m);
         m
     }
@@ -498,35 +480,24 @@ impl<'a, 'input> Loader<'a, 'input> {
             },
         };
 
-        // Each instance gets its own vertices, transformed to world space.
-        let base = self.scene.mesh.positions.len() as u32;
-        let n_pos = positions.values.len() / positions.stride;
-        for i in 0..n_pos {
-            let v = &positions.values[i * positions.stride..i * positions.stride + 3];
-            self.scene
-                .mesh
-                .positions
-                .push(world.transform_point3(Vec3::new(v[0], v[1], v[2])));
-        }
-        // Fan triangulation. Zero-area triangles (collinear corners, as in
-        // basic/plane1024.dae's T-junctions) can never be hit and have no
-        // normal: they are skipped and counted, not loaded.
+        // Each instance gets its own vertices, transformed to world space;
+        // polygons are triangulated as fans.
+        let base = self.builder.vertices(
+            positions
+                .values
+                .chunks_exact(positions.stride)
+                .map(|v| world.transform_point3(Vec3::new(v[0], v[1], v[2]))),
+        );
         let mut cursor = 0usize;
         for &n in &vcount {
             let corner = |c: usize| base + indices[(cursor + c) * stride + vertex_offset];
             for c in 1..(n as usize - 1) {
-                let tri = [corner(0), corner(c), corner(c + 1)];
-                let [a, b, c] = tri.map(|i| self.scene.mesh.positions[i as usize]);
-                if (b - a).cross(c - a).length_squared() == 0.0 {
-                    self.scene.degenerate_triangles += 1;
-                    continue;
-                }
-                self.scene.mesh.indices.push(tri);
-                self.scene.mesh.materials.push(material);
+                self.builder
+                    .face([corner(0), corner(c), corner(c + 1)], material);
             }
             cursor += n as usize;
         }
-        self.scene.polygon_count += vcount.len();
+        self.builder.polygons(vcount.len());
         Ok(())
     }
 
@@ -544,8 +515,7 @@ impl<'a, 'input> Loader<'a, 'input> {
             .ok_or_else(|| self.error(material, "no <instance_effect>"))?;
         let effect = self.reference(inst, "url")?;
         let parsed = self.effect(effect)?;
-        let index = self.scene.materials.len() as u32;
-        self.scene.materials.push(parsed);
+        let index = self.builder.material(parsed);
         self.materials.insert(id, index);
         Ok(index)
     }
@@ -663,7 +633,7 @@ impl<'a, 'input> Loader<'a, 'input> {
                 ))
             }
         };
-        self.scene.lights.push(light);
+        self.builder.light(light);
         Ok(())
     }
 
@@ -710,44 +680,6 @@ impl<'a, 'input> Loader<'a, 'input> {
             xfov: x,
             yfov: y,
         })
-    }
-
-    /// Adds the rectangles of area lights as geometry (two triangles each,
-    /// wound so that the geometric normal is the emitting side) with an
-    /// emission material of the light's radiance, so camera rays and
-    /// bounces see them. Emitting triangles of the file's own meshes get a
-    /// triangle light each, once, before the rectangles (which already have
-    /// their light).
-    fn add_light_geometry(&mut self) {
-        self.scene.add_emitter_lights();
-        let quads: Vec<AreaLight> = self
-            .scene
-            .lights
-            .iter()
-            .filter_map(|l| match l {
-                Light::Area(a) if !a.triangle => Some(*a),
-                _ => None,
-            })
-            .collect();
-        for quad in quads {
-            let material = self.scene.materials.len() as u32;
-            self.scene.materials.push(Material::Emission {
-                radiance: quad.radiance,
-            });
-            let (o, u, v) = (quad.origin, quad.edge_u, quad.edge_v);
-            let corners = [o, o + u, o + u + v, o + v];
-            let flip = u.cross(v).dot(quad.normal) < 0.0;
-            let base = self.scene.mesh.positions.len() as u32;
-            self.scene.mesh.positions.extend_from_slice(&corners);
-            for tri in [[0, 1, 2], [0, 2, 3]] {
-                let t = if flip { [tri[0], tri[2], tri[1]] } else { tri };
-                self.scene
-                    .mesh
-                    .indices
-                    .push([base + t[0], base + t[1], base + t[2]]);
-                self.scene.mesh.materials.push(material);
-            }
-        }
     }
 
     fn floats(&self, node: Node, expected: Option<usize>) -> Result<Vec<f32>> {

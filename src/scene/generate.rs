@@ -1,85 +1,10 @@
 //! Scenes made in code: the white furnace, closed test meshes for the
 //! parity suite, and meshes of any size for the scaling study.
 
-use glam::{Mat4, Vec3};
+use glam::Vec3;
 
-use super::{Bounds, CameraSpec, Light, Material, NormalMode, Scene, Sphere};
-
-/// Builds a [`Scene`] piece by piece, finished like a loaded one.
-pub struct SceneBuilder {
-    scene: Scene,
-}
-
-impl SceneBuilder {
-    pub fn new(name: &str) -> SceneBuilder {
-        let scene = Scene {
-            name: name.to_string(),
-            ..Scene::default()
-        };
-        SceneBuilder { scene }
-    }
-
-    pub fn material(&mut self, m: Material) -> u32 {
-        self.scene.materials.push(m);
-        self.scene.materials.len() as u32 - 1
-    }
-
-    /// Adds triangles (indices into `positions`) with one material.
-    pub fn mesh(&mut self, positions: &[Vec3], triangles: &[[u32; 3]], material: u32) -> &mut Self {
-        let base = self.scene.mesh.positions.len() as u32;
-        self.scene.mesh.positions.extend_from_slice(positions);
-        for t in triangles {
-            self.scene
-                .mesh
-                .indices
-                .push([t[0] + base, t[1] + base, t[2] + base]);
-            self.scene.mesh.materials.push(material);
-        }
-        self.scene.polygon_count += triangles.len();
-        self
-    }
-
-    pub fn sphere(&mut self, center: Vec3, radius: f32, material: u32) -> &mut Self {
-        self.scene.spheres.push(Sphere {
-            center,
-            radius,
-            material,
-        });
-        self
-    }
-
-    pub fn light(&mut self, light: Light) -> &mut Self {
-        self.scene.lights.push(light);
-        self
-    }
-
-    /// A camera at `position` looking at `target` (node placement).
-    pub fn camera(&mut self, position: Vec3, target: Vec3, xfov: f32, yfov: f32) -> &mut Self {
-        let view = Mat4::look_at_rh(position, target, Vec3::Y);
-        self.scene.camera = CameraSpec {
-            transform: view.inverse(),
-            xfov,
-            yfov,
-        };
-        self
-    }
-
-    pub fn finish(mut self, normal_mode: NormalMode) -> Scene {
-        self.scene.framing_bounds = self.scene.bounds();
-        if self.scene.framing_bounds.is_empty() {
-            self.scene.framing_bounds = Bounds {
-                min: Vec3::splat(-1.0),
-                max: Vec3::splat(1.0),
-            };
-        }
-        self.scene.add_emitter_lights();
-        self.scene.normal_mode = normal_mode;
-        if normal_mode == NormalMode::Smooth {
-            self.scene.mesh.compute_smooth_normals();
-        }
-        self.scene
-    }
-}
+pub use super::builder::SceneBuilder;
+use super::{Material, NormalMode, Scene};
 
 /// An axis-aligned box `[-1, 1]^3` as 12 triangles, wound outward (or
 /// inward with `inward`).

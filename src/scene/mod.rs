@@ -6,6 +6,7 @@
 //! shading data of a hit are derived here, from the scene, the same way for
 //! every backend.
 
+pub mod builder;
 pub mod collada;
 pub mod generate;
 

@@ -1,6 +1,7 @@
 //! The parity suite as tests: shared scenes within the documented
 //! thresholds, and the hard cases with what the design promises.
 
+use hybrid::accel::BackendConfig;
 use hybrid::parity::{format_tables, hard, run_scene};
 
 use crate::common::scene_or_skip;
@@ -49,16 +50,16 @@ fn hard_cases_hold_the_design_promises() {
     let mut mt_leaks = 0;
     for r in &reports {
         for (mode, o) in &r.outcomes {
-            assert_eq!(o.panics, 0, "{} panicked on {}", mode.name(), r.name);
-            assert_eq!(o.nans, 0, "{} returned NaN on {}", mode.name(), r.name);
-            if r.watertight_promise && *mode == hard::Mode::NativeWatertight {
+            assert_eq!(o.panics, 0, "{} panicked on {}", mode.label(), r.name);
+            assert_eq!(o.nans, 0, "{} returned NaN on {}", mode.label(), r.name);
+            if r.watertight_promise && *mode == BackendConfig::NATIVE_WATERTIGHT {
                 assert_eq!(
                     o.failures, 0,
                     "watertight mode leaked {} of {} rays on {}",
                     o.failures, o.rays, r.name
                 );
             }
-            if r.watertight_promise && *mode == hard::Mode::NativeMollerTrumbore {
+            if r.watertight_promise && *mode == BackendConfig::NATIVE {
                 mt_leaks += o.failures;
             }
         }
@@ -79,7 +80,7 @@ fn hard_cases_hold_the_design_promises() {
                     0,
                     "{}: {} {} of {}",
                     r.name,
-                    mode.name(),
+                    mode.label(),
                     r.failure,
                     o.rays
                 );

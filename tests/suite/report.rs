@@ -32,22 +32,28 @@ fn quick_report_writes_every_section_and_the_headline_figures() {
     let json: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).unwrap())
             .expect("valid JSON");
-    let scenes = json["scenes"].as_array().expect("scenes");
-    assert_eq!(scenes.len(), 3);
+    assert_eq!(json["scenes"].as_array().expect("scenes").len(), 3);
+    let headline = json["headline"].as_array().expect("headline rows");
+    assert_eq!(headline.len(), 3);
     let positive = |v: &serde_json::Value, what: &str| {
         let x = v.as_f64().unwrap_or_else(|| panic!("{what} missing"));
         assert!(x.is_finite() && x > 0.0, "{what} = {x}");
         x
     };
-    for s in scenes {
+    for s in headline {
         let name = s["scene"].as_str().unwrap();
         positive(&s["native_build_ms"], &format!("{name} native_build_ms"));
         positive(&s["embree_build_ms"], &format!("{name} embree_build_ms"));
         for kind in ["camera", "shadow", "bounce"] {
-            let r = &s["rays"][kind];
-            let n = positive(&r["native_mrays"], &format!("{name} {kind} native_mrays"));
-            let e = positive(&r["embree_mrays"], &format!("{name} {kind} embree_mrays"));
-            let ratio = positive(&r["ratio"], &format!("{name} {kind} ratio"));
+            let n = positive(
+                &s[format!("{kind}_native")],
+                &format!("{name} {kind} native"),
+            );
+            let e = positive(
+                &s[format!("{kind}_embree")],
+                &format!("{name} {kind} embree"),
+            );
+            let ratio = positive(&s[format!("{kind}_ratio")], &format!("{name} {kind} ratio"));
             assert!(
                 (ratio - n / e).abs() < 1e-9 * ratio.max(1.0),
                 "{name} {kind}: ratio {ratio} != {n}/{e}"

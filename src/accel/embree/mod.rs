@@ -29,7 +29,7 @@ use super::{Accel, AccelError, AccelStats, Hit, Ray, TraceCounters};
 use crate::scene::Scene;
 
 /// Options of the Embree backend.
-#[derive(Clone, Copy, Debug, Default)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct EmbreeOptions {
     pub quality: BuildQuality,
     /// Embree's `RTC_SCENE_FLAG_ROBUST`: slower, avoids optimizations that
@@ -37,6 +37,20 @@ pub struct EmbreeOptions {
     pub robust: bool,
     /// Embree's build threads; 0 means all cores.
     pub threads: usize,
+}
+
+impl EmbreeOptions {
+    pub const DEFAULT: EmbreeOptions = EmbreeOptions {
+        quality: BuildQuality::Medium,
+        robust: false,
+        threads: 0,
+    };
+}
+
+impl Default for EmbreeOptions {
+    fn default() -> Self {
+        EmbreeOptions::DEFAULT
+    }
 }
 
 pub struct EmbreeAccel<'s> {

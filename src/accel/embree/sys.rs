@@ -39,13 +39,15 @@ mod raw {
 const INVALID_GEOMETRY_ID: u32 = u32::MAX;
 
 /// Embree's build quality.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, clap::ValueEnum)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
 pub enum BuildQuality {
     Low,
     #[default]
     Medium,
     High,
 }
+
+crate::choice!(BuildQuality { Low => "low", Medium => "medium", High => "high" });
 
 /// Where the last Embree error is kept until [`Device::check`] reads it.
 struct ErrorSink {

@@ -40,7 +40,7 @@ impl BvhNode {
 }
 
 /// How the builder chooses splits.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, clap::ValueEnum)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
 pub enum BuildMethod {
     /// Binned SAH over all three axes.
     #[default]
@@ -49,6 +49,8 @@ pub enum BuildMethod {
     /// measured against.
     Median,
 }
+
+crate::choice!(BuildMethod { Sah => "sah", Median => "median" });
 
 /// Cost constants of the SAH, relative to one primitive test.
 pub const TRAVERSAL_COST: f64 = 1.0;
@@ -131,10 +133,6 @@ impl Bvh {
             prim_order: refs.iter().map(|r| r.index).collect(),
             max_leaf,
         }
-    }
-
-    pub fn is_empty(&self) -> bool {
-        self.nodes.is_empty()
     }
 
     pub fn leaf_count(&self) -> usize {

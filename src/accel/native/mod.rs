@@ -22,7 +22,7 @@ use super::{Accel, AccelStats, Hit, Ray, TraceCounters};
 use crate::scene::{Bounds, Scene};
 
 /// Build and traversal options of the native backend.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct NativeOptions {
     pub triangle: TriangleMode,
     pub method: BuildMethod,
@@ -32,14 +32,18 @@ pub struct NativeOptions {
     pub wide8: bool,
 }
 
+impl NativeOptions {
+    pub const DEFAULT: NativeOptions = NativeOptions {
+        triangle: TriangleMode::MollerTrumbore,
+        method: BuildMethod::Sah,
+        max_leaf: 4,
+        wide8: true,
+    };
+}
+
 impl Default for NativeOptions {
     fn default() -> Self {
-        NativeOptions {
-            triangle: TriangleMode::MollerTrumbore,
-            method: BuildMethod::Sah,
-            max_leaf: 4,
-            wide8: true,
-        }
+        NativeOptions::DEFAULT
     }
 }
 

@@ -333,12 +333,14 @@ impl TriangleBlock4 {
 }
 
 /// Which triangle test the native backend runs.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, clap::ValueEnum)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
 pub enum TriangleMode {
     #[default]
     MollerTrumbore,
     Watertight,
 }
+
+crate::choice!(TriangleMode { MollerTrumbore => "moller-trumbore", Watertight => "watertight" });
 
 #[cfg(test)]
 mod tests {

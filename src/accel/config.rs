@@ -1,0 +1,165 @@
+//! Every backend configuration, named once: what a configuration is
+//! ([`BackendConfig`]), its label, how it is built, and the named sets that
+//! the parity suite, the hard cases, the report, the benches and the CLI
+//! iterate. Adding a backend means its folder, this file and its CLI flags.
+
+use super::embree::{BuildQuality, EmbreeAccel, EmbreeOptions};
+use super::native::bvh::BuildMethod;
+use super::native::triangle::TriangleMode;
+use super::native::{NativeBvh, NativeOptions};
+use super::{brute::BruteForce, AccelError, Backend};
+use crate::choice::Choice;
+use crate::scene::Scene;
+
+/// One backend with its options.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum BackendConfig {
+    Native(NativeOptions),
+    Embree(EmbreeOptions),
+    /// Every primitive for every ray (`--accel none`).
+    Brute,
+}
+
+/// Brute force joins comparisons (parity, the report) up to this many
+/// primitives; beyond it a run would take minutes.
+pub const BRUTE_FORCE_LIMIT: usize = 5_000;
+
+impl BackendConfig {
+    /// The native BVH as the renderer uses it by default (Möller–Trumbore).
+    pub const NATIVE: BackendConfig = BackendConfig::Native(NativeOptions::DEFAULT);
+    /// The native BVH with the watertight triangle test: the accuracy
+    /// reference of the parity suite.
+    pub const NATIVE_WATERTIGHT: BackendConfig = BackendConfig::Native(NativeOptions {
+        triangle: TriangleMode::Watertight,
+        ..NativeOptions::DEFAULT
+    });
+    /// The native BVH built by median splits: the baseline the SAH is
+    /// measured against.
+    pub const NATIVE_MEDIAN: BackendConfig = BackendConfig::Native(NativeOptions {
+        method: BuildMethod::Median,
+        ..NativeOptions::DEFAULT
+    });
+    /// Embree at its default (medium) build quality.
+    pub const EMBREE: BackendConfig = BackendConfig::Embree(EmbreeOptions::DEFAULT);
+    pub const EMBREE_ROBUST: BackendConfig = BackendConfig::Embree(EmbreeOptions {
+        robust: true,
+        ..EmbreeOptions::DEFAULT
+    });
+    pub const EMBREE_LOW: BackendConfig = BackendConfig::Embree(EmbreeOptions {
+        quality: BuildQuality::Low,
+        ..EmbreeOptions::DEFAULT
+    });
+    pub const EMBREE_HIGH: BackendConfig = BackendConfig::Embree(EmbreeOptions {
+        quality: BuildQuality::High,
+        ..EmbreeOptions::DEFAULT
+    });
+    pub const BRUTE: BackendConfig = BackendConfig::Brute;
+
+    /// The backend's name as `--accel` spells it.
+    pub fn kind(&self) -> &'static str {
+        match self {
+            BackendConfig::Native(_) => "native",
+            BackendConfig::Embree(_) => "embree",
+            BackendConfig::Brute => "none",
+        }
+    }
+
+    /// A short label naming the backend and every option that differs from
+    /// its default, e.g. `native`, `native watertight`, `embree robust`.
+    pub fn label(&self) -> String {
+        let mut label = self.kind().to_string();
+        match *self {
+            BackendConfig::Native(o) => {
+                let d = NativeOptions::DEFAULT;
+                if o.triangle != d.triangle {
+                    label += &format!(" {}", o.triangle.name());
+                }
+                if o.method != d.method {
+                    label += &format!(" {}", o.method.name());
+                }
+                if o.max_leaf != d.max_leaf {
+                    label += &format!(" leaf {}", o.max_leaf);
+                }
+                if o.wide8 != d.wide8 {
+                    label += " 4-wide";
+                }
+            }
+            BackendConfig::Embree(o) => {
+                if o.quality != EmbreeOptions::DEFAULT.quality {
+                    label += &format!(" {}", o.quality.name());
+                }
+                if o.robust {
+                    label += " robust";
+                }
+            }
+            BackendConfig::Brute => label += " (brute force)",
+        }
+        label
+    }
+
+    /// The same configuration with `threads` build threads (Embree's pool;
+    /// 0 means all cores). The native build uses the caller's rayon pool.
+    pub fn with_threads(self, threads: usize) -> BackendConfig {
+        match self {
+            BackendConfig::Embree(o) => BackendConfig::Embree(EmbreeOptions { threads, ..o }),
+            other => other,
+        }
+    }
+
+    /// Whether the configuration is sensible for `scene` (brute force only
+    /// on small scenes).
+    pub fn suits(&self, scene: &Scene) -> bool {
+        !matches!(self, BackendConfig::Brute) || scene.primitive_count() <= BRUTE_FORCE_LIMIT
+    }
+
+    /// Builds the backend over `scene`.
+    pub fn build<'s>(&self, scene: &'s Scene) -> Result<Backend<'s>, AccelError> {
+        Ok(match self {
+            BackendConfig::Native(o) => Backend::Native(NativeBvh::build(scene, o)),
+            BackendConfig::Embree(o) => Backend::Embree(EmbreeAccel::build(scene, o)?),
+            BackendConfig::Brute => Backend::Brute(BruteForce::build(scene)),
+        })
+    }
+}
+
+/// The parity suite's reference: every other configuration is compared
+/// with it, hit by hit.
+pub const PARITY_REFERENCE: BackendConfig = BackendConfig::NATIVE_WATERTIGHT;
+
+/// What the parity suite compares with the reference (brute force only
+/// where it [suits](BackendConfig::suits) the scene).
+pub const PARITY_CANDIDATES: [BackendConfig; 4] = [
+    BackendConfig::NATIVE,
+    BackendConfig::EMBREE,
+    BackendConfig::EMBREE_ROBUST,
+    BackendConfig::BRUTE,
+];
+
+/// The columns of the hard-case table.
+pub const HARD_CASE_MODES: [BackendConfig; 4] = [
+    BackendConfig::NATIVE,
+    BackendConfig::NATIVE_WATERTIGHT,
+    BackendConfig::EMBREE,
+    BackendConfig::EMBREE_ROBUST,
+];
+
+/// The builds the report and the benches time.
+pub const BUILD_VARIANTS: [BackendConfig; 6] = [
+    BackendConfig::NATIVE,
+    BackendConfig::NATIVE_WATERTIGHT,
+    BackendConfig::NATIVE_MEDIAN,
+    BackendConfig::EMBREE_LOW,
+    BackendConfig::EMBREE,
+    BackendConfig::EMBREE_HIGH,
+];
+
+/// The two backends whose speed the report and the benches compare, in
+/// the order of every ratio (`native / embree`).
+pub const COMPARED: [BackendConfig; 2] = [BackendConfig::NATIVE, BackendConfig::EMBREE];
+
+/// The "with and without acceleration" table.
+pub const WITH_AND_WITHOUT: [BackendConfig; 3] = [
+    BackendConfig::BRUTE,
+    BackendConfig::NATIVE,
+    BackendConfig::EMBREE,
+];

@@ -1,0 +1,80 @@
+//! "With and without acceleration": camera-ray throughput of brute force
+//! against both BVHs on small scenes.
+
+use std::path::Path;
+
+use super::budget::{Budget, BRUTE_FORCE_SCENES};
+use super::load;
+use super::measure::{mrays, Query};
+use super::table::{Cell, Measured, Table};
+use crate::accel::config::WITH_AND_WITHOUT;
+use crate::accel::BackendConfig;
+use crate::parity::rays;
+
+/// One scene: camera-ray Mrays/s per configuration of [`WITH_AND_WITHOUT`].
+pub struct BruteRow {
+    pub scene: String,
+    pub primitives: usize,
+    pub mrays: Vec<Measured>,
+}
+
+pub fn measure(dir: &Path, budget: &Budget) -> Result<Vec<BruteRow>, String> {
+    BRUTE_FORCE_SCENES
+        .iter()
+        .map(|rel| {
+            let scene = load(dir, rel)?;
+            let set = rays::camera_rays(&scene, (budget.rays / 4).max(2_000), 4);
+            let mrays = WITH_AND_WITHOUT
+                .iter()
+                .map(|config| {
+                    let accel = config.build(&scene).map_err(|e| e.to_string())?;
+                    // Brute force is slow: fewer repeats.
+                    let repeats = match config {
+                        BackendConfig::Brute => budget.repeats.min(3),
+                        _ => budget.repeats,
+                    };
+                    Ok(mrays(&accel, &set, Query::Closest, 1, repeats))
+                })
+                .collect::<Result<_, String>>()?;
+            Ok(BruteRow {
+                scene: rel.to_string(),
+                primitives: scene.primitive_count(),
+                mrays,
+            })
+        })
+        .collect()
+}
+
+pub fn table(rows: &[BruteRow]) -> Table {
+    let mut columns = vec![
+        ("scene".to_string(), "scene".to_string()),
+        ("primitives".into(), "primitives".into()),
+    ];
+    for c in &WITH_AND_WITHOUT {
+        columns.push((
+            format!("{}_mrays", c.kind()),
+            format!("{} Mrays/s", c.kind()),
+        ));
+    }
+    for c in &WITH_AND_WITHOUT[1..] {
+        columns.push((
+            format!("{}_speedup", c.kind()),
+            format!("{} speed-up over none", c.kind()),
+        ));
+    }
+    let mut table = Table::new(columns);
+    for r in rows {
+        let mut row = vec![
+            Cell::Text(r.scene.clone()),
+            Cell::Count(r.primitives as u64),
+        ];
+        row.extend(r.mrays.iter().map(|m| Cell::Measured(*m, 2)));
+        row.extend(
+            r.mrays[1..]
+                .iter()
+                .map(|m| Cell::Ratio(m.median / r.mrays[0].median)),
+        );
+        table.row(row);
+    }
+    table
+}

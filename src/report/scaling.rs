@@ -1,0 +1,180 @@
+//! How cost grows with scene size: builds and traces of the compared
+//! backends on generated bumpy plates of 10^3 to 2·10^6 triangles, with
+//! fitted log-log slopes.
+
+use std::path::Path;
+
+use glam::Vec3;
+
+use super::budget::Budget;
+use super::measure::{mrays, time_repeats, Query, Timing};
+use super::plot::{loglog, loglog_slope, Series};
+use super::table::{Cell, Measured, Table};
+use crate::accel::config::COMPARED;
+use crate::accel::Ray;
+use crate::render::sampling::Rng;
+use crate::scene::generate::{plate, SceneBuilder};
+use crate::scene::{Material, NormalMode, Scene};
+
+/// One generated mesh: build time and one-thread throughput per compared
+/// backend.
+pub struct ScalingRow {
+    pub triangles: usize,
+    pub build: [Timing; 2],
+    pub mrays: [Measured; 2],
+}
+
+pub struct Scaling {
+    pub rows: Vec<ScalingRow>,
+    /// Fitted slopes: build time per compared backend, time per ray per
+    /// compared backend.
+    pub build_slopes: [f64; 2],
+    pub trace_slopes: [f64; 2],
+}
+
+/// A bumpy square of about `triangles` triangles (a displaced grid, so the
+/// BVH has real depth to sort out).
+pub fn bumpy_plate(triangles: usize) -> Scene {
+    let n = ((triangles as f64 / 2.0).sqrt().round() as u32).max(1);
+    let (mut positions, tris) = plate(n);
+    for p in &mut positions {
+        p.z =
+            0.05 * (p.x * 13.0).sin() * (p.y * 11.0).cos() + 0.02 * (p.x * 57.0 + p.y * 31.0).sin();
+    }
+    let mut b = SceneBuilder::new(&format!("bumpy plate, {} triangles", tris.len()));
+    let m = b.material(Material::DEFAULT);
+    b.mesh(&positions, &tris, m);
+    b.finish(NormalMode::Flat)
+}
+
+/// Rays from above the plate towards random points on it.
+fn plate_rays(n: usize) -> Vec<Ray> {
+    let mut rng = Rng::new(77, 9);
+    (0..n)
+        .map(|_| {
+            let target = Vec3::new(rng.next_f32() * 1.8 - 0.9, rng.next_f32() * 1.8 - 0.9, 0.0);
+            let origin = Vec3::new(rng.next_f32() * 4.0 - 2.0, rng.next_f32() * 4.0 - 2.0, 3.0);
+            Ray::new(origin, (target - origin).normalize())
+        })
+        .collect()
+}
+
+pub fn measure(budget: &Budget) -> Result<Scaling, String> {
+    let set = plate_rays(budget.scaling_rays);
+    let mut rows = Vec::new();
+    for &size in &budget.scaling {
+        let scene = bumpy_plate(size);
+        let repeats = if scene.triangle_count() >= 1_000_000 {
+            2
+        } else {
+            budget.repeats.min(5)
+        };
+        let build = COMPARED.map(|c| time_repeats(repeats, || c.build(&scene).map(|_| ())));
+        let backends = COMPARED
+            .iter()
+            .map(|c| c.build(&scene))
+            .collect::<Result<Vec<_>, _>>()
+            .map_err(|e| e.to_string())?;
+        let mrays = [0, 1].map(|i| mrays(&backends[i], &set, Query::Closest, 1, repeats));
+        rows.push(ScalingRow {
+            triangles: scene.triangle_count(),
+            build,
+            mrays,
+        });
+    }
+    let build_points = |i: usize| -> Vec<(f64, f64)> {
+        rows.iter()
+            .map(|r| (r.triangles as f64, r.build[i].median * 1e3))
+            .collect()
+    };
+    let trace_points = |i: usize| -> Vec<(f64, f64)> {
+        rows.iter()
+            .map(|r| (r.triangles as f64, 1e3 / r.mrays[i].median))
+            .collect()
+    };
+    let build_slopes = [0, 1].map(|i| loglog_slope(&build_points(i)));
+    let trace_slopes = [0, 1].map(|i| loglog_slope(&trace_points(i)));
+    Ok(Scaling {
+        rows,
+        build_slopes,
+        trace_slopes,
+    })
+}
+
+pub fn table(s: &Scaling) -> Table {
+    let mut table = Table::new([
+        ("triangles", "triangles"),
+        ("native_build_ms", "native build ms"),
+        ("embree_build_ms", "embree build ms"),
+        ("native_mrays", "native Mrays/s"),
+        ("embree_mrays", "embree Mrays/s"),
+        ("ratio", "native/embree trace"),
+    ]);
+    for r in &s.rows {
+        table.row(vec![
+            Cell::Count(r.triangles as u64),
+            Cell::Measured(Measured::millis(&r.build[0]), 2),
+            Cell::Measured(Measured::millis(&r.build[1]), 2),
+            Cell::Measured(r.mrays[0], 2),
+            Cell::Measured(r.mrays[1], 2),
+            Cell::Ratio(r.mrays[0].median / r.mrays[1].median),
+        ]);
+    }
+    table
+}
+
+pub fn slopes_table(s: &Scaling) -> Table {
+    let mut table = Table::new([
+        ("backend", "backend"),
+        ("build", "build time ∝ n^"),
+        ("ns_per_ray", "time per ray ∝ n^"),
+    ]);
+    for (i, c) in COMPARED.iter().enumerate() {
+        table.row(vec![
+            Cell::Text(c.label()),
+            Cell::Number(s.build_slopes[i], 2),
+            Cell::Number(s.trace_slopes[i], 2),
+        ]);
+    }
+    table
+}
+
+/// Draws `scaling_build.svg` and `scaling_trace.svg` into `out`.
+pub fn plot(s: &Scaling, out: &Path) -> Result<(), String> {
+    let lines = |value: &dyn Fn(&ScalingRow, usize) -> f64, slopes: [f64; 2]| -> Vec<Series> {
+        COMPARED
+            .iter()
+            .enumerate()
+            .map(|(i, c)| Series {
+                name: format!("{} (slope {:.2})", c.label(), slopes[i]),
+                points: s
+                    .rows
+                    .iter()
+                    .map(|r| (r.triangles as f64, value(r, i)))
+                    .collect(),
+            })
+            .collect()
+    };
+    loglog(
+        &out.join("scaling_build.svg"),
+        "build time against triangles",
+        "triangles",
+        "build time (ms)",
+        &lines(&|r, i| r.build[i].median * 1e3, s.build_slopes),
+    )?;
+    loglog(
+        &out.join("scaling_trace.svg"),
+        "trace time per ray against triangles",
+        "triangles",
+        "ns per ray (1 thread)",
+        &lines(&|r, i| 1e3 / r.mrays[i].median, s.trace_slopes),
+    )
+}
+
+pub fn markdown(s: &Scaling) -> String {
+    format!(
+        "## How cost grows with scene size\n\nGenerated bumpy plates; builds on all threads (median of repeats), traces on one thread with the same rays.\n\n{}\n{}\nA BVH build is O(n log n) (slope a little over 1) and a traversal O(log n) (slope near 0).\n\n![build scaling](scaling_build.svg)\n![trace scaling](scaling_trace.svg)\n\n",
+        table(s).markdown(),
+        slopes_table(s).markdown()
+    )
+}

@@ -1,0 +1,231 @@
+//! The one writer of the report: typed rows become a [`Table`], and a table
+//! becomes Markdown (for `report.md`) and JSON (for `report.json`). The
+//! sections only decide which columns a row has.
+
+use serde_json::{Map, Value};
+
+use super::measure::Timing;
+
+/// Repeats whose spread (max - min over the median) exceeds this are
+/// marked noisy in the Markdown and flagged in the JSON.
+pub const NOISY_SPREAD: f64 = 0.10;
+
+/// One value of a row.
+#[derive(Clone, Debug)]
+pub enum Cell {
+    Text(String),
+    Count(u64),
+    /// A number printed with this many decimals.
+    Number(f64, usize),
+    /// A ratio, printed as `1.23x`.
+    Ratio(f64),
+    /// The median of repeated measurements and their range, printed with
+    /// this many decimals; marked when the repeats are noisy.
+    Measured(Measured, usize),
+    Empty,
+}
+
+/// A figure measured several times: its median, smallest and largest value.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Measured {
+    pub median: f64,
+    pub min: f64,
+    pub max: f64,
+}
+
+impl Measured {
+    /// Milliseconds of a timing given in seconds.
+    pub fn millis(t: &Timing) -> Measured {
+        Measured {
+            median: t.median * 1e3,
+            min: t.min * 1e3,
+            max: t.max * 1e3,
+        }
+    }
+
+    pub fn seconds(t: &Timing) -> Measured {
+        Measured {
+            median: t.median,
+            min: t.min,
+            max: t.max,
+        }
+    }
+
+    /// Million items per second for `items` processed in each repeat of `t`.
+    pub fn per_second_millions(items: usize, t: &Timing) -> Measured {
+        let rate = |s: f64| items as f64 / s.max(1e-12) / 1e6;
+        Measured {
+            median: rate(t.median),
+            min: rate(t.max),
+            max: rate(t.min),
+        }
+    }
+
+    /// (max - min) / median.
+    pub fn spread(&self) -> f64 {
+        if self.median > 0.0 {
+            (self.max - self.min) / self.median
+        } else {
+            0.0
+        }
+    }
+
+    pub fn is_noisy(&self) -> bool {
+        self.spread() > NOISY_SPREAD
+    }
+}
+
+/// A column: its JSON key and its Markdown header.
+#[derive(Clone, Debug)]
+pub struct Column {
+    pub key: String,
+    pub header: String,
+}
+
+/// Rows under named columns.
+#[derive(Clone, Debug)]
+pub struct Table {
+    pub columns: Vec<Column>,
+    pub rows: Vec<Vec<Cell>>,
+}
+
+impl Table {
+    /// A table with `(json key, header)` columns.
+    pub fn new<K: Into<String>, H: Into<String>>(
+        columns: impl IntoIterator<Item = (K, H)>,
+    ) -> Table {
+        Table {
+            columns: columns
+                .into_iter()
+                .map(|(key, header)| Column {
+                    key: key.into(),
+                    header: header.into(),
+                })
+                .collect(),
+            rows: Vec::new(),
+        }
+    }
+
+    pub fn row(&mut self, cells: Vec<Cell>) {
+        debug_assert_eq!(cells.len(), self.columns.len(), "row width");
+        self.rows.push(cells);
+    }
+
+    pub fn markdown(&self) -> String {
+        let mut md = format!(
+            "| {} |\n|{}\n",
+            self.columns
+                .iter()
+                .map(|c| c.header.as_str())
+                .collect::<Vec<_>>()
+                .join(" | "),
+            "---|".repeat(self.columns.len())
+        );
+        for row in &self.rows {
+            md += &format!(
+                "| {} |\n",
+                row.iter()
+                    .map(markdown_cell)
+                    .collect::<Vec<_>>()
+                    .join(" | ")
+            );
+        }
+        md
+    }
+
+    /// The rows as an array of objects keyed by the columns' keys.
+    /// A measured value `k` also gives `k_min`, `k_max` and `k_noisy`.
+    pub fn json(&self) -> Value {
+        Value::Array(
+            self.rows
+                .iter()
+                .map(|row| {
+                    let mut object = Map::new();
+                    for (column, cell) in self.columns.iter().zip(row) {
+                        insert_json(&mut object, &column.key, cell);
+                    }
+                    Value::Object(object)
+                })
+                .collect(),
+        )
+    }
+
+    /// Whether any measured cell is noisy (for a footnote).
+    pub fn has_noisy(&self) -> bool {
+        self.rows
+            .iter()
+            .flatten()
+            .any(|c| matches!(c, Cell::Measured(m, _) if m.is_noisy()))
+    }
+}
+
+fn markdown_cell(cell: &Cell) -> String {
+    match cell {
+        Cell::Text(s) => s.clone(),
+        Cell::Count(n) => n.to_string(),
+        Cell::Number(v, d) => format!("{v:.d$}"),
+        Cell::Ratio(v) => format!("{v:.2}x"),
+        Cell::Measured(m, d) => format!(
+            "{:.d$} ({:.d$}–{:.d$}){}",
+            m.median,
+            m.min,
+            m.max,
+            if m.is_noisy() { " ⚠" } else { "" }
+        ),
+        Cell::Empty => "–".into(),
+    }
+}
+
+fn insert_json(object: &mut Map<String, Value>, key: &str, cell: &Cell) {
+    let number = |v: f64| serde_json::Number::from_f64(v).map_or(Value::Null, Value::Number);
+    match cell {
+        Cell::Text(s) => {
+            object.insert(key.into(), Value::String(s.clone()));
+        }
+        Cell::Count(n) => {
+            object.insert(key.into(), Value::from(*n));
+        }
+        Cell::Number(v, _) | Cell::Ratio(v) => {
+            object.insert(key.into(), number(*v));
+        }
+        Cell::Measured(m, _) => {
+            object.insert(key.into(), number(m.median));
+            object.insert(format!("{key}_min"), number(m.min));
+            object.insert(format!("{key}_max"), number(m.max));
+            object.insert(format!("{key}_noisy"), Value::Bool(m.is_noisy()));
+        }
+        Cell::Empty => {
+            object.insert(key.into(), Value::Null);
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn one_table_gives_markdown_and_json_with_noise_marked() {
+        let mut t = Table::new([("scene", "scene"), ("mrays", "Mrays/s")]);
+        let steady = Measured {
+            median: 10.0,
+            min: 9.9,
+            max: 10.1,
+        };
+        let noisy = Measured {
+            median: 10.0,
+            min: 8.0,
+            max: 10.5,
+        };
+        t.row(vec![Cell::Text("a".into()), Cell::Measured(steady, 1)]);
+        t.row(vec![Cell::Text("b".into()), Cell::Measured(noisy, 1)]);
+        let md = t.markdown();
+        assert!(md.contains("| a | 10.0 (9.9–10.1) |"), "{md}");
+        assert!(md.contains("| b | 10.0 (8.0–10.5) ⚠ |"), "{md}");
+        let json = t.json();
+        assert_eq!(json[1]["mrays"], 10.0);
+        assert_eq!(json[1]["mrays_noisy"], true);
+        assert_eq!(json[0]["mrays_noisy"], false);
+        assert!(t.has_noisy());
+    }
+}
