@@ -1,15 +1,52 @@
-//! Every backend configuration, named once: what a configuration is
-//! ([`BackendConfig`]), its label, how it is built, and the named sets that
-//! the parity suite, the hard cases, the report, the benches and the CLI
-//! iterate. Adding a backend means its folder, this file and its CLI flags.
+//! Every backend, named once: what a configuration is ([`BackendConfig`]),
+//! its label, how it is built into the run-time union ([`Backend`]), and the
+//! named sets that the parity suite, the hard cases, the report, the
+//! benches and the CLI iterate. Adding a backend means its folder (declared
+//! in `accel/mod.rs`), this file and its CLI flags.
 
 use super::embree::{BuildQuality, EmbreeAccel, EmbreeOptions};
 use super::native::bvh::BuildMethod;
 use super::native::triangle::TriangleMode;
 use super::native::{NativeBvh, NativeOptions};
-use super::{brute::BruteForce, AccelError, Backend};
+use super::{brute, Accel, AccelError, AccelStats, Hit, Ray, TraceCounters};
 use crate::choice::Choice;
 use crate::scene::Scene;
+
+/// The backend chosen at run time, as a tagged union: static dispatch on
+/// the per-ray path, one match per query.
+pub enum Backend<'s> {
+    Native(NativeBvh),
+    Embree(EmbreeAccel<'s>),
+    Brute(brute::BruteForce),
+}
+
+impl Accel for Backend<'_> {
+    #[inline]
+    fn closest_hit(&self, ray: &Ray, counters: &mut TraceCounters) -> Option<Hit> {
+        match self {
+            Backend::Native(a) => a.closest_hit(ray, counters),
+            Backend::Embree(a) => a.closest_hit(ray, counters),
+            Backend::Brute(a) => a.closest_hit(ray, counters),
+        }
+    }
+
+    #[inline]
+    fn occluded(&self, ray: &Ray, counters: &mut TraceCounters) -> bool {
+        match self {
+            Backend::Native(a) => a.occluded(ray, counters),
+            Backend::Embree(a) => a.occluded(ray, counters),
+            Backend::Brute(a) => a.occluded(ray, counters),
+        }
+    }
+
+    fn stats(&self) -> AccelStats {
+        match self {
+            Backend::Native(a) => a.stats(),
+            Backend::Embree(a) => a.stats(),
+            Backend::Brute(a) => a.stats(),
+        }
+    }
+}
 
 /// One backend with its options.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -117,7 +154,7 @@ impl BackendConfig {
         Ok(match self {
             BackendConfig::Native(o) => Backend::Native(NativeBvh::build(scene, o)),
             BackendConfig::Embree(o) => Backend::Embree(EmbreeAccel::build(scene, o)?),
-            BackendConfig::Brute => Backend::Brute(BruteForce::build(scene)),
+            BackendConfig::Brute => Backend::Brute(brute::BruteForce::build(scene)),
         })
     }
 }

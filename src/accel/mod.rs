@@ -21,7 +21,7 @@ pub mod ray;
 
 use glam::Vec3;
 
-pub use self::config::BackendConfig;
+pub use self::config::{Backend, BackendConfig};
 pub use self::ray::Ray;
 
 /// The closest hit along a ray: what every backend reports.
@@ -84,45 +84,9 @@ pub trait Accel: Sync + Send {
     fn stats(&self) -> AccelStats;
 }
 
-/// The backend chosen at run time, as a tagged union: static dispatch on
-/// the per-ray path, one match per query.
-pub enum Backend<'s> {
-    Native(native::NativeBvh),
-    Embree(embree::EmbreeAccel<'s>),
-    Brute(brute::BruteForce),
-}
-
 /// Why a backend could not be built.
 #[derive(Debug, thiserror::Error)]
 pub enum AccelError {
     #[error("embree: {0}")]
     Embree(String),
-}
-
-impl Accel for Backend<'_> {
-    #[inline]
-    fn closest_hit(&self, ray: &Ray, counters: &mut TraceCounters) -> Option<Hit> {
-        match self {
-            Backend::Native(a) => a.closest_hit(ray, counters),
-            Backend::Embree(a) => a.closest_hit(ray, counters),
-            Backend::Brute(a) => a.closest_hit(ray, counters),
-        }
-    }
-
-    #[inline]
-    fn occluded(&self, ray: &Ray, counters: &mut TraceCounters) -> bool {
-        match self {
-            Backend::Native(a) => a.occluded(ray, counters),
-            Backend::Embree(a) => a.occluded(ray, counters),
-            Backend::Brute(a) => a.occluded(ray, counters),
-        }
-    }
-
-    fn stats(&self) -> AccelStats {
-        match self {
-            Backend::Native(a) => a.stats(),
-            Backend::Embree(a) => a.stats(),
-            Backend::Brute(a) => a.stats(),
-        }
-    }
 }

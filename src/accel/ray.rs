@@ -35,15 +35,6 @@ impl Ray {
         }
     }
 
-    pub fn segment(origin: Vec3, dir: Vec3, t_max: f32) -> Ray {
-        Ray {
-            origin,
-            dir,
-            t_min: 0.0,
-            t_max,
-        }
-    }
-
     /// The spawn rule: a ray leaving `p` (on a surface with unit geometric
     /// normal `ng`) in direction `dir`, reaching as far as `t_max`.
     #[inline]

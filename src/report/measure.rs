@@ -17,7 +17,6 @@ pub struct Timing {
     pub median: f64,
     pub min: f64,
     pub max: f64,
-    pub repeats: usize,
 }
 
 impl Timing {
@@ -36,16 +35,6 @@ impl Timing {
             median,
             min: v[0],
             max: v[n - 1],
-            repeats: n,
-        }
-    }
-
-    /// Spread as a share of the median: (max - min) / median.
-    pub fn spread(&self) -> f64 {
-        if self.median > 0.0 {
-            (self.max - self.min) / self.median
-        } else {
-            0.0
         }
     }
 }

@@ -9,6 +9,11 @@
 pub mod builder;
 pub mod collada;
 pub mod generate;
+mod light;
+mod material;
+
+pub use self::light::{AreaLight, Light};
+pub use self::material::Material;
 
 use glam::{Mat4, Vec3};
 
@@ -91,153 +96,6 @@ pub struct Sphere {
     pub center: Vec3,
     pub radius: f32,
     pub material: u32,
-}
-
-/// How a surface scatters or emits light (`scene-format.md`, Materials).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub enum Material {
-    /// Diffuse reflection. `emission` (one-sided, front face) is zero for
-    /// every file; generated scenes such as the white furnace use it.
-    Lambertian {
-        albedo: Vec3,
-        emission: Vec3,
-    },
-    Emission {
-        radiance: Vec3,
-    },
-    Mirror {
-        reflectance: Vec3,
-    },
-    Glass {
-        reflectance: Vec3,
-        transmittance: Vec3,
-        roughness: f32,
-        ior: f32,
-    },
-    Refraction {
-        transmittance: Vec3,
-        roughness: f32,
-        ior: f32,
-    },
-    /// Rough conductor: Beckmann roughness `alpha`, complex IOR `eta + i k`.
-    Microfacet {
-        alpha: f32,
-        eta: Vec3,
-        k: Vec3,
-    },
-}
-
-impl Material {
-    /// Albedo used where a file gives no material.
-    pub const DEFAULT: Material = Material::Lambertian {
-        albedo: Vec3::splat(0.5),
-        emission: Vec3::ZERO,
-    };
-
-    /// A Lambertian material that does not emit.
-    pub fn lambertian(albedo: Vec3) -> Material {
-        Material::Lambertian {
-            albedo,
-            emission: Vec3::ZERO,
-        }
-    }
-
-    /// Radiance emitted from the front face.
-    pub fn emission(&self) -> Vec3 {
-        match *self {
-            Material::Emission { radiance } => radiance,
-            Material::Lambertian { emission, .. } => emission,
-            _ => Vec3::ZERO,
-        }
-    }
-
-    /// Short name for summaries.
-    pub fn kind(&self) -> &'static str {
-        match self {
-            Material::Lambertian { .. } => "lambertian",
-            Material::Emission { .. } => "emission",
-            Material::Mirror { .. } => "mirror",
-            Material::Glass { .. } => "glass",
-            Material::Refraction { .. } => "refraction",
-            Material::Microfacet { .. } => "microfacet",
-        }
-    }
-}
-
-/// A planar emitter that light sampling can pick points on: a parallelogram
-/// (the file's rectangular area lights) or a triangle (emissive meshes).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct AreaLight {
-    /// A corner of the shape.
-    pub origin: Vec3,
-    pub edge_u: Vec3,
-    pub edge_v: Vec3,
-    /// True for a triangle `origin, origin + edge_u, origin + edge_v`.
-    pub triangle: bool,
-    /// Unit normal of the emitting side.
-    pub normal: Vec3,
-    pub radiance: Vec3,
-    pub area: f32,
-}
-
-impl AreaLight {
-    /// The point at `(s, t)` in the unit square, mapped uniformly onto the
-    /// shape (triangles use the square-root warp, pbrt-v4 §A.5.5).
-    #[inline]
-    pub fn point_at(&self, s: f32, t: f32) -> Vec3 {
-        if self.triangle {
-            let r = s.sqrt();
-            self.origin + self.edge_u * (r * (1.0 - t)) + self.edge_v * (r * t)
-        } else {
-            self.origin + self.edge_u * s + self.edge_v * t
-        }
-    }
-}
-
-/// The lights of `scene-format.md`, with the project's physically consistent
-/// choices (point lights fall off with 1/r²).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub enum Light {
-    Area(AreaLight),
-    /// Intensity `intensity` (W/sr per channel) at `position`.
-    Point {
-        position: Vec3,
-        intensity: Vec3,
-    },
-    /// Irradiance `radiance` on a surface facing `to_light`.
-    Directional {
-        to_light: Vec3,
-        radiance: Vec3,
-    },
-    /// A sphere whose material emits `radiance` outwards, sampled
-    /// uniformly by area.
-    Sphere {
-        center: Vec3,
-        radius: f32,
-        radiance: Vec3,
-    },
-    /// Uniform radiance arriving from the world's +Y hemisphere.
-    Ambient {
-        radiance: Vec3,
-    },
-}
-
-impl Light {
-    pub fn kind(&self) -> &'static str {
-        match self {
-            Light::Area(l) if l.triangle => "emissive triangle",
-            Light::Sphere { .. } => "emissive sphere",
-            Light::Area(_) => "area",
-            Light::Point { .. } => "point",
-            Light::Directional { .. } => "directional",
-            Light::Ambient { .. } => "ambient",
-        }
-    }
-
-    /// True for lights with a delta distribution, which take one sample.
-    pub fn is_delta(&self) -> bool {
-        matches!(self, Light::Point { .. } | Light::Directional { .. })
-    }
 }
 
 /// The camera as the file states it; [`crate::render::camera`] turns it into

@@ -1,4 +1,4 @@
-//! The only `unsafe` code of the project: Embree's C API (bindings generated
+//! All of the FFI's `unsafe` code: Embree's C API (bindings generated
 //! by bindgen in `build.rs` from `ffi/embree.h`) behind a small safe API.
 //!
 //! Ownership: [`Device`] and [`Scene`] own one Embree reference each and

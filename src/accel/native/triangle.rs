@@ -21,7 +21,6 @@ use crate::accel::Ray;
 #[derive(Clone, Copy, Debug)]
 pub struct ShearedRay {
     pub origin: Vec3,
-    pub dir: Vec3,
     /// The dominant axis, the two others, and the shear.
     kx: usize,
     ky: usize,
@@ -49,7 +48,6 @@ impl ShearedRay {
         let shear = Vec3::new(d[kx] / d[kz], d[ky] / d[kz], 1.0 / d[kz]);
         ShearedRay {
             origin: ray.origin,
-            dir: d,
             kx,
             ky,
             kz,

@@ -1,0 +1,315 @@
+//! COLLADA 1.4 loader for the CGL dialect (`scene-format.md`): node
+//! hierarchy, up-axis, `polylist`/`triangles` meshes, CGL/CMU462 spheres,
+//! CGL materials and lights, and the camera.
+//!
+//! Everything outside the dialect is an error naming the file, the line and
+//! the element; unknown `extra` content is ignored.
+//!
+//! - this file: the document, references, the node hierarchy;
+//! - [`geometry`]: mesh sources, `polylist`/`triangles`, spheres' data;
+//! - [`shading`]: materials, lights and the camera;
+//! - [`numbers`]: the numbers and indices inside elements.
+
+mod geometry;
+mod numbers;
+mod shading;
+
+use std::collections::HashMap;
+use std::path::Path;
+
+use glam::{Mat4, Vec3, Vec4};
+use roxmltree::{Document, Node};
+
+use super::builder::SceneBuilder;
+use super::{CameraSpec, Material, NormalMode, Scene};
+
+/// Why a scene could not be loaded: always names the file and, where there
+/// is one, the line and element.
+#[derive(Debug, thiserror::Error)]
+pub enum LoadError {
+    #[error("{file}: cannot read the scene: {source}")]
+    Io {
+        file: String,
+        #[source]
+        source: std::io::Error,
+    },
+    #[error("{file}:{line}:{column}: malformed XML: {message}")]
+    Xml {
+        file: String,
+        line: u32,
+        column: u32,
+        message: String,
+    },
+    #[error("{file}:{line}: <{element}>: {problem}")]
+    Invalid {
+        file: String,
+        line: u32,
+        element: String,
+        problem: String,
+    },
+}
+
+/// Loads a scene file with the given shading-normal mode.
+pub fn load(path: &Path, normal_mode: NormalMode) -> Result<Scene, LoadError> {
+    let file = path.display().to_string();
+    let bytes = std::fs::read(path).map_err(|source| LoadError::Io {
+        file: file.clone(),
+        source,
+    })?;
+    let text = String::from_utf8(bytes).map_err(|e| LoadError::Xml {
+        file: file.clone(),
+        line: 0,
+        column: 0,
+        message: format!("not UTF-8 text ({e})"),
+    })?;
+    load_str(&text, &file, normal_mode)
+}
+
+/// Loads a scene from COLLADA text; `file` names it in errors.
+pub fn load_str(text: &str, file: &str, normal_mode: NormalMode) -> Result<Scene, LoadError> {
+    let doc = Document::parse(text).map_err(|e| {
+        let pos = e.pos();
+        LoadError::Xml {
+            file: file.to_string(),
+            line: pos.row,
+            column: pos.col,
+            message: e.to_string(),
+        }
+    })?;
+    let mut loader = Loader::new(file, &doc);
+    loader.load()?;
+    Ok(loader.builder.finish(normal_mode))
+}
+
+type Result<T, E = LoadError> = std::result::Result<T, E>;
+
+struct Loader<'a, 'input> {
+    file: &'a str,
+    doc: &'a Document<'input>,
+    ids: HashMap<&'a str, Node<'a, 'input>>,
+    builder: SceneBuilder,
+    /// Material element id -> index in `scene.materials`.
+    materials: HashMap<String, u32>,
+    default_material: Option<u32>,
+    camera: Option<CameraSpec>,
+}
+
+impl<'a, 'input> Loader<'a, 'input> {
+    fn new(file: &'a str, doc: &'a Document<'input>) -> Self {
+        let ids = doc
+            .descendants()
+            .filter(|n| n.is_element())
+            .filter_map(|n| n.attribute("id").map(|id| (id, n)))
+            .collect();
+        Loader {
+            file,
+            doc,
+            ids,
+            builder: SceneBuilder::new(file),
+            materials: HashMap::new(),
+            default_material: None,
+            camera: None,
+        }
+    }
+
+    fn error(&self, node: Node, problem: impl Into<String>) -> LoadError {
+        let pos = self.doc.text_pos_at(node.range().start);
+        LoadError::Invalid {
+            file: self.file.to_string(),
+            line: pos.row,
+            element: node.tag_name().name().to_string(),
+            problem: problem.into(),
+        }
+    }
+
+    fn load(&mut self) -> Result<()> {
+        let root = self.doc.root_element();
+        if root.tag_name().name() != "COLLADA" {
+            return Err(self.error(root, "the root element is not <COLLADA>"));
+        }
+        let up = self.global_matrix(root)?;
+        let scene_el =
+            child(root, "scene").ok_or_else(|| self.error(root, "no <scene> element"))?;
+        let instance = child(scene_el, "instance_visual_scene")
+            .ok_or_else(|| self.error(scene_el, "no <instance_visual_scene> element"))?;
+        let visual_scene = self.reference(instance, "url")?;
+        if visual_scene.tag_name().name() != "visual_scene" {
+            return Err(self.error(instance, "url does not name a <visual_scene>"));
+        }
+        for node in elements(visual_scene).filter(|n| n.tag_name().name() == "node") {
+            self.load_node(node, up)?;
+        }
+        self.builder.camera_spec(self.camera.unwrap_or_default());
+        Ok(())
+    }
+
+    /// The matrix from the file's up-axis to the renderer's Y-up.
+    fn global_matrix(&self, root: Node) -> Result<Mat4> {
+        let axis = child(root, "asset").and_then(|a| child(a, "up_axis"));
+        let Some(axis) = axis else {
+            return Ok(Mat4::IDENTITY);
+        };
+        let rows: [[f32; 3]; 3] = match axis.text().unwrap_or("").trim() {
+            "Y_UP" => return Ok(Mat4::IDENTITY),
+            "Z_UP" => [[-1.0, 0.0, 0.0], [0.0, 0.0, 1.0], [0.0, 1.0, 0.0]],
+            "X_UP" => [[0.0, 1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, -1.0]],
+            other => return Err(self.error(axis, format!("unknown up axis '{other}'"))),
+        };
+        let m = Mat4::from_cols(
+            Vec4::new(rows[0][0], rows[1][0], rows[2][0], 0.0),
+            Vec4::new(rows[0][1], rows[1][1], rows[2][1], 0.0),
+            Vec4::new(rows[0][2], rows[1][2], rows[2][2], 0.0),
+            Vec4::W,
+        );
+        Ok(m)
+    }
+
+    /// Follows a `url="#id"` or `target="#id"` attribute.
+    fn reference(&self, node: Node<'a, 'input>, attr: &str) -> Result<Node<'a, 'input>> {
+        let value = node
+            .attribute(attr)
+            .ok_or_else(|| self.error(node, format!("missing attribute '{attr}'")))?;
+        let id = value.strip_prefix('#').ok_or_else(|| {
+            self.error(
+                node,
+                format!("{attr}=\"{value}\" is not a local reference '#id'"),
+            )
+        })?;
+        self.ids
+            .get(id)
+            .copied()
+            .ok_or_else(|| self.error(node, format!("{attr}=\"{value}\" refers to a missing id")))
+    }
+
+    fn load_node(&mut self, node: Node<'a, 'input>, parent: Mat4) -> Result<()> {
+        let mut local = Mat4::IDENTITY;
+        for c in elements(node) {
+            local = match c.tag_name().name() {
+                "matrix" => {
+                    let v = self.floats(c, Some(16))?;
+                    local * Mat4::from_cols_slice(&v).transpose()
+                }
+                "translate" => {
+                    let v = self.floats(c, Some(3))?;
+                    local * Mat4::from_translation(Vec3::new(v[0], v[1], v[2]))
+                }
+                "scale" => {
+                    let v = self.floats(c, Some(3))?;
+                    local * Mat4::from_scale(Vec3::new(v[0], v[1], v[2]))
+                }
+                "rotate" => {
+                    let v = self.floats(c, Some(4))?;
+                    let axis = Vec3::new(v[0], v[1], v[2]);
+                    if axis.length_squared() == 0.0 {
+                        return Err(self.error(c, "rotation axis is zero"));
+                    }
+                    local * Mat4::from_axis_angle(axis.normalize(), v[3].to_radians())
+                }
+                _ => continue,
+            };
+        }
+        let world = parent * local;
+        let mut instances = 0;
+        for c in elements(node) {
+            match c.tag_name().name() {
+                "matrix" | "translate" | "scale" | "rotate" | "extra" | "asset" => {}
+                "node" => self.load_node(c, world)?,
+                "instance_geometry" => {
+                    instances += 1;
+                    self.load_instance_geometry(c, world)?;
+                }
+                "instance_light" => {
+                    instances += 1;
+                    let light = self.reference(c, "url")?;
+                    self.load_light(light, world)?;
+                }
+                "instance_camera" => {
+                    instances += 1;
+                    if self.camera.is_none() {
+                        let camera = self.reference(c, "url")?;
+                        self.camera = Some(self.load_camera(camera, world)?);
+                    }
+                }
+                other => return Err(self.error(c, format!("unsupported element in <node> (the dialect knows node, matrix, translate, rotate, scale, instance_geometry, instance_light, instance_camera), found <{other}>"))),
+            }
+        }
+        if instances > 1 {
+            return Err(self.error(
+                node,
+                "a node instances more than one camera, light or geometry",
+            ));
+        }
+        Ok(())
+    }
+
+    fn load_instance_geometry(&mut self, inst: Node<'a, 'input>, world: Mat4) -> Result<()> {
+        let geometry = self.reference(inst, "url")?;
+        if geometry.tag_name().name() != "geometry" {
+            return Err(self.error(inst, "url does not name a <geometry>"));
+        }
+        // Material symbols bound by this instance.
+        let mut bindings: Vec<(String, u32)> = Vec::new();
+        if let Some(tc) = child(inst, "bind_material").and_then(|b| child(b, "technique_common")) {
+            for im in elements(tc).filter(|n| n.tag_name().name() == "instance_material") {
+                let symbol = im.attribute("symbol").unwrap_or("").to_string();
+                let material = self.reference(im, "target")?;
+                let index = self.material(material)?;
+                bindings.push((symbol, index));
+            }
+        }
+        if let Some(mesh) = child(geometry, "mesh") {
+            return self.load_mesh(mesh, world, &bindings);
+        }
+        if let Some(sphere) = cgl_technique(geometry).and_then(|t| child(t, "sphere")) {
+            let radius_el =
+                child(sphere, "radius").ok_or_else(|| self.error(sphere, "no <radius>"))?;
+            let r = self.floats(radius_el, Some(1))?[0];
+            if r <= 0.0 {
+                return Err(self.error(radius_el, format!("sphere radius {r} is not positive")));
+            }
+            let center = world.transform_point3(Vec3::ZERO);
+            let radius = r * world.transform_vector3(Vec3::X).length();
+            let material = match bindings.first() {
+                Some((_, m)) => *m,
+                None => self.default_material(),
+            };
+            self.builder.sphere(center, radius, material);
+            return Ok(());
+        }
+        Err(self.error(
+            geometry,
+            "geometry has neither a <mesh> nor a CGL/CMU462 <sphere>",
+        ))
+    }
+
+    fn default_material(&mut self) -> u32 {
+        if let Some(m) = self.default_material {
+            return m;
+        }
+        let m = self.builder.material(Material::DEFAULT);
+        self.default_material = Some(m);
+        m
+    }
+}
+
+/// Element children of `node`.
+fn elements<'a, 'input>(node: Node<'a, 'input>) -> impl Iterator<Item = Node<'a, 'input>> {
+    node.children().filter(|n| n.is_element())
+}
+
+/// The first element child named `name`.
+fn child<'a, 'input>(node: Node<'a, 'input>, name: &str) -> Option<Node<'a, 'input>> {
+    elements(node).find(|n| n.tag_name().name() == name)
+}
+
+/// The `<extra><technique profile="CGL">` (or older `CMU462`) block of
+/// `node`.
+fn cgl_technique<'a, 'input>(node: Node<'a, 'input>) -> Option<Node<'a, 'input>> {
+    elements(node)
+        .filter(|n| n.tag_name().name() == "extra")
+        .flat_map(elements)
+        .find(|t| {
+            t.tag_name().name() == "technique"
+                && matches!(t.attribute("profile"), Some("CGL") | Some("CMU462"))
+        })
+}

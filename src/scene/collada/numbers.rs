@@ -1,0 +1,56 @@
+//! The numbers inside elements: floats (finite only), vectors, indices.
+
+use glam::Vec3;
+use roxmltree::Node;
+
+use super::{Loader, Result};
+
+impl<'a, 'input> Loader<'a, 'input> {
+    pub(super) fn floats(&self, node: Node, expected: Option<usize>) -> Result<Vec<f32>> {
+        let text = node.text().unwrap_or("");
+        let mut out = Vec::with_capacity(expected.unwrap_or(0));
+        for token in text.split_ascii_whitespace() {
+            let v: f32 = token
+                .parse()
+                .map_err(|_| self.error(node, format!("'{token}' is not a number")))?;
+            if !v.is_finite() {
+                return Err(self.error(node, format!("non-finite number '{token}'")));
+            }
+            out.push(v);
+        }
+        if let Some(n) = expected {
+            if out.len() != n {
+                return Err(self.error(
+                    node,
+                    format!("{} numbers where {n} are expected", out.len()),
+                ));
+            }
+        }
+        Ok(out)
+    }
+
+    pub(super) fn vec3(&self, node: Node) -> Result<Vec3> {
+        let v = self.floats(node, None)?;
+        if v.len() < 3 {
+            return Err(self.error(
+                node,
+                format!(
+                    "{} numbers where a colour or vector of 3 is expected",
+                    v.len()
+                ),
+            ));
+        }
+        Ok(Vec3::new(v[0], v[1], v[2]))
+    }
+
+    pub(super) fn integers(&self, node: Node) -> Result<Vec<u32>> {
+        node.text()
+            .unwrap_or("")
+            .split_ascii_whitespace()
+            .map(|t| {
+                t.parse::<u32>()
+                    .map_err(|_| self.error(node, format!("'{t}' is not an index")))
+            })
+            .collect()
+    }
+}

@@ -1,0 +1,191 @@
+//! Materials (CGL techniques or the common Phong diffuse colour), lights
+//! and the camera.
+
+use glam::{Mat4, Vec3};
+use roxmltree::Node;
+
+use super::{cgl_technique, child, elements, Loader, Result};
+use crate::scene::{AreaLight, CameraSpec, Light, Material};
+
+impl<'a, 'input> Loader<'a, 'input> {
+    /// Index of the material that `material` (a `<material>` element) names,
+    /// loading it on first use.
+    pub(super) fn material(&mut self, material: Node<'a, 'input>) -> Result<u32> {
+        let id = material.attribute("id").unwrap_or("").to_string();
+        if let Some(&m) = self.materials.get(&id) {
+            return Ok(m);
+        }
+        if material.tag_name().name() != "material" {
+            return Err(self.error(material, "target does not name a <material>"));
+        }
+        let inst = child(material, "instance_effect")
+            .ok_or_else(|| self.error(material, "no <instance_effect>"))?;
+        let effect = self.reference(inst, "url")?;
+        let parsed = self.effect(effect)?;
+        let index = self.builder.material(parsed);
+        self.materials.insert(id, index);
+        Ok(index)
+    }
+
+    pub(super) fn effect(&self, effect: Node) -> Result<Material> {
+        if let Some(kind) = cgl_technique(effect).and_then(|t| elements(t).next()) {
+            let colour = |name: &str| -> Result<Vec3> {
+                self.vec3(
+                    child(kind, name).ok_or_else(|| self.error(kind, format!("no <{name}>")))?,
+                )
+            };
+            let scalar = |name: &str, default: f32| -> Result<f32> {
+                match child(kind, name) {
+                    Some(n) => Ok(self.floats(n, Some(1))?[0]),
+                    None => Ok(default),
+                }
+            };
+            return Ok(match kind.tag_name().name() {
+                "emission" => Material::Emission {
+                    radiance: colour("radiance")?,
+                },
+                "mirror" => Material::Mirror {
+                    reflectance: colour("reflectance")?,
+                },
+                "glass" => Material::Glass {
+                    reflectance: colour("reflectance")?,
+                    transmittance: colour("transmittance")?,
+                    roughness: scalar("roughness", 0.0)?,
+                    ior: scalar("ior", 1.5)?,
+                },
+                "refraction" => Material::Refraction {
+                    transmittance: colour("transmittance")?,
+                    roughness: scalar("roughness", 0.0)?,
+                    ior: scalar("ior", 1.5)?,
+                },
+                "microfacet" => Material::Microfacet {
+                    alpha: scalar("alpha", 0.5)?.max(1e-3),
+                    eta: colour("eta")?,
+                    k: colour("k")?,
+                },
+                other => return Err(self.error(kind, format!("unknown CGL material <{other}>"))),
+            });
+        }
+        let diffuse = child(effect, "profile_COMMON")
+            .and_then(|p| child(p, "technique"))
+            .and_then(|t| {
+                elements(t).find(|n| matches!(n.tag_name().name(), "phong" | "lambert" | "blinn"))
+            })
+            .and_then(|s| child(s, "diffuse"))
+            .and_then(|d| child(d, "color"));
+        match diffuse {
+            Some(c) => {
+                let v = self.floats(c, None)?;
+                if v.len() < 3 {
+                    return Err(self.error(c, "a colour needs three numbers"));
+                }
+                Ok(Material::lambertian(Vec3::new(v[0], v[1], v[2])))
+            }
+            None => Ok(Material::DEFAULT),
+        }
+    }
+
+    pub(super) fn load_light(&mut self, light: Node, world: Mat4) -> Result<()> {
+        if light.tag_name().name() != "light" {
+            return Err(self.error(light, "url does not name a <light>"));
+        }
+        let technique = cgl_technique(light)
+            .or_else(|| child(light, "technique_common"))
+            .ok_or_else(|| self.error(light, "no CGL technique and no <technique_common>"))?;
+        let kind = elements(technique)
+            .next()
+            .ok_or_else(|| self.error(technique, "empty light technique"))?;
+        let color_el = child(kind, "color").ok_or_else(|| self.error(kind, "no <color>"))?;
+        let color = self.vec3(color_el)?;
+        let at = |p: Vec3| world.transform_point3(p);
+        let light = match kind.tag_name().name() {
+            "area" => {
+                let c = at(Vec3::ZERO);
+                let normal = (at(Vec3::new(0.0, 0.0, -1.0)) - c).normalize_or_zero();
+                let dim_y = at(Vec3::Y) - c;
+                let dim_x = at(Vec3::new(-1.0, 0.0, 0.0)) - c;
+                let area = dim_x.length() * dim_y.length();
+                if normal == Vec3::ZERO || area == 0.0 {
+                    return Err(self.error(kind, "area light has a degenerate transform"));
+                }
+                Light::Area(AreaLight {
+                    origin: c - dim_x * 0.5 - dim_y * 0.5,
+                    edge_u: dim_x,
+                    edge_v: dim_y,
+                    triangle: false,
+                    normal,
+                    radiance: color,
+                    area,
+                })
+            }
+            "point" => Light::Point {
+                position: at(Vec3::ZERO),
+                intensity: color,
+            },
+            "directional" => {
+                let to_light = at(Vec3::new(0.0, 0.0, -1.0)).normalize_or_zero();
+                if to_light == Vec3::ZERO {
+                    return Err(self.error(kind, "directional light has no direction"));
+                }
+                Light::Directional {
+                    to_light,
+                    radiance: color,
+                }
+            }
+            "ambient" => Light::Ambient { radiance: color },
+            other => {
+                return Err(self.error(
+                    kind,
+                    format!("unsupported light type <{other}> (area, point, directional, ambient)"),
+                ))
+            }
+        };
+        self.builder.light(light);
+        Ok(())
+    }
+
+    pub(super) fn load_camera(&self, camera: Node, world: Mat4) -> Result<CameraSpec> {
+        if camera.tag_name().name() != "camera" {
+            return Err(self.error(camera, "url does not name a <camera>"));
+        }
+        let optics = child(camera, "optics").ok_or_else(|| self.error(camera, "no <optics>"))?;
+        let tc = child(optics, "technique_common")
+            .ok_or_else(|| self.error(optics, "no <technique_common>"))?;
+        let persp = child(tc, "perspective").ok_or_else(|| {
+            self.error(
+                tc,
+                "no <perspective> (only perspective cameras are supported)",
+            )
+        })?;
+        let get = |name: &str| -> Result<Option<f32>> {
+            match child(persp, name) {
+                Some(n) => Ok(Some(self.floats(n, Some(1))?[0])),
+                None => Ok(None),
+            }
+        };
+        let (xfov, yfov, aspect) = (get("xfov")?, get("yfov")?, get("aspect_ratio")?);
+        let half = |deg: f32| (deg.to_radians() * 0.5).tan();
+        let full = |t: f32| (2.0 * t.atan()).to_degrees();
+        let (x, y) = match (xfov, yfov, aspect) {
+            (Some(x), Some(y), _) => (x, y),
+            (Some(x), None, Some(a)) => (x, full(half(x) / a)),
+            (None, Some(y), Some(a)) => (full(half(y) * a), y),
+            (Some(x), None, None) => (x, x),
+            (None, Some(y), None) => (y, y),
+            (None, None, _) => return Err(self.error(persp, "neither <xfov> nor <yfov>")),
+        };
+        for (name, v) in [("xfov", x), ("yfov", y)] {
+            if !(v > 0.0 && v < 180.0) {
+                return Err(self.error(
+                    persp,
+                    format!("{name} {v} is not between 0 and 180 degrees"),
+                ));
+            }
+        }
+        Ok(CameraSpec {
+            transform: world,
+            xfov: x,
+            yfov: y,
+        })
+    }
+}
