@@ -5,7 +5,7 @@
 //! in `accel/mod.rs`), this file and its CLI flags.
 
 use super::embree::{BuildQuality, EmbreeAccel, EmbreeOptions};
-use super::native::bvh::BuildMethod;
+use super::native::build::BuildMethod;
 use super::native::triangle::TriangleMode;
 use super::native::{NativeBvh, NativeOptions};
 use super::{brute, Accel, AccelError, AccelStats, Hit, Ray, TraceCounters};
@@ -117,8 +117,8 @@ impl BackendConfig {
                 if o.max_leaf != d.max_leaf {
                     label += &format!(" leaf {}", o.max_leaf);
                 }
-                if o.wide8 != d.wide8 {
-                    label += " 4-wide";
+                if o.simd != d.simd {
+                    label += " scalar";
                 }
             }
             BackendConfig::Embree(o) => {
@@ -152,7 +152,7 @@ impl BackendConfig {
     /// Builds the backend over `scene`.
     pub fn build<'s>(&self, scene: &'s Scene) -> Result<Backend<'s>, AccelError> {
         Ok(match self {
-            BackendConfig::Native(o) => Backend::Native(NativeBvh::build(scene, o)),
+            BackendConfig::Native(o) => Backend::Native(NativeBvh::build(scene, o)?),
             BackendConfig::Embree(o) => Backend::Embree(EmbreeAccel::build(scene, o)?),
             BackendConfig::Brute => Backend::Brute(brute::BruteForce::build(scene)),
         })

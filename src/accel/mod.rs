@@ -89,4 +89,6 @@ pub trait Accel: Sync + Send {
 pub enum AccelError {
     #[error("embree: {0}")]
     Embree(String),
+    #[error("{0}")]
+    TooLarge(String),
 }

@@ -8,7 +8,7 @@ use clap::Args;
 
 use super::choice;
 use crate::accel::embree::{BuildQuality, EmbreeOptions};
-use crate::accel::native::bvh::BuildMethod;
+use crate::accel::native::build::BuildMethod;
 use crate::accel::native::triangle::TriangleMode;
 use crate::accel::native::NativeOptions;
 use crate::accel::{Accel, BackendConfig};
@@ -98,9 +98,10 @@ pub struct RenderArgs {
     /// Embree backend: robust scene flag.
     #[arg(long)]
     pub robust: bool,
-    /// Native backend: traverse 4-wide (SSE) even where AVX allows 8-wide.
+    /// Native backend: the portable scalar traversal even where the CPU
+    /// runs the AVX2 one.
     #[arg(long)]
-    pub no_avx: bool,
+    pub scalar: bool,
 }
 
 impl RenderArgs {
@@ -123,8 +124,8 @@ impl RenderArgs {
         if self.light_samples == 0 {
             return Err("-l 0: at least one light sample is needed".into());
         }
-        if self.leaf == 0 || self.leaf > 255 {
-            return Err(format!("--leaf {}: leaf size must be 1..=255", self.leaf));
+        if self.leaf == 0 || self.leaf > 16 {
+            return Err(format!("--leaf {}: leaf size must be 1..=16", self.leaf));
         }
         if let Some(p) = self.russian_roulette {
             if !(p > 0.0 && p <= 1.0) {
@@ -213,7 +214,7 @@ impl RenderArgs {
                 triangle: self.triangle,
                 method: self.build,
                 max_leaf: self.leaf,
-                wide8: !self.no_avx,
+                simd: !self.scalar,
             }),
             AccelArg::Embree => BackendConfig::Embree(EmbreeOptions {
                 quality: self.quality,

@@ -48,6 +48,30 @@ pub fn random_rays(scene: &Scene, n: usize, seed: u64) -> Vec<Ray> {
         .collect()
 }
 
+/// Incoherent rays, as the comparison headline defines them: origins
+/// uniform inside the scene's bounds, directions uniform on the sphere.
+pub fn incoherent_rays(scene: &Scene, n: usize, seed: u64) -> Vec<Ray> {
+    let b = scene.bounds();
+    let mut rng = Rng::new(seed, 6);
+    (0..n)
+        .map(|_| {
+            let o = b.min + b.extent() * Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32());
+            let (u, v) = rng.next_2d();
+            Ray::new(o, uniform_sphere(u, v))
+        })
+        .collect()
+}
+
+/// The headline's shadow rays: the incoherent rays as occlusion queries
+/// reaching half the diagonal of the scene's bounds.
+pub fn occlusion_rays(scene: &Scene, n: usize, seed: u64) -> Vec<Ray> {
+    let reach = 0.5 * scene.bounds().extent().length();
+    incoherent_rays(scene, n, seed)
+        .into_iter()
+        .map(|r| Ray { t_max: reach, ..r })
+        .collect()
+}
+
 /// Real hit points of camera rays, found with `reference`: position,
 /// geometric normal facing the camera.
 fn surface_points<A: Accel>(

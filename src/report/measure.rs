@@ -112,9 +112,17 @@ pub struct RaySet {
     pub rays: Vec<Ray>,
 }
 
-/// The ray kinds the report and the benches trace, about `n` each: camera
-/// rays in tile order, shadow rays from camera hits towards light samples,
-/// and diffuse bounce rays from camera hits (hit points found by `finder`).
+/// The ray kinds the report and the benches trace, about `n` each:
+/// - `camera`: jittered pinhole rays in tile order over the framed scene;
+/// - `incoherent`: origins uniform in the scene's bounds, uniform
+///   directions;
+/// - `shadow`: the incoherent rays as occlusion queries reaching half the
+///   bounds' diagonal;
+/// - `bounce`: diffuse rays leaving camera hits (as the path tracer sends);
+/// - `light`: shadow rays from camera hits to light samples (as the path
+///   tracer sends).
+///
+/// Hit points are found with `finder`.
 pub fn ray_sets<A: Accel>(scene: &Scene, finder: &A, n: usize) -> Vec<RaySet> {
     vec![
         RaySet {
@@ -123,14 +131,24 @@ pub fn ray_sets<A: Accel>(scene: &Scene, finder: &A, n: usize) -> Vec<RaySet> {
             rays: rays::camera_rays(scene, n, 1),
         },
         RaySet {
+            kind: "incoherent",
+            query: Query::Closest,
+            rays: rays::incoherent_rays(scene, n, 5),
+        },
+        RaySet {
             kind: "shadow",
             query: Query::Occluded,
-            rays: rays::shadow_rays(scene, finder, n, 2),
+            rays: rays::occlusion_rays(scene, n, 5),
         },
         RaySet {
             kind: "bounce",
             query: Query::Closest,
             rays: rays::bounce_rays(scene, finder, n, 3),
+        },
+        RaySet {
+            kind: "light",
+            query: Query::Occluded,
+            rays: rays::shadow_rays(scene, finder, n, 2),
         },
     ]
 }

@@ -2,7 +2,8 @@
 //! brute force on random rays.
 
 use hybrid::accel::brute::BruteForce;
-use hybrid::accel::native::bvh::{BuildMethod, Bvh};
+use hybrid::accel::native::build::BuildMethod;
+use hybrid::accel::native::node::{is_leaf, leaf_count};
 use hybrid::accel::native::triangle::TriangleMode;
 use hybrid::accel::native::{NativeBvh, NativeOptions};
 use hybrid::accel::{Accel, Hit, Ray, TraceCounters};
@@ -11,35 +12,48 @@ use hybrid::scene::{Bounds, Scene};
 
 use crate::common::{self, scene_or_skip};
 
-fn check_invariants(name: &str, bvh: &Bvh, boxes: &[Bounds], max_leaf: usize) {
-    let mut seen = vec![0u32; boxes.len()];
+/// Every triangle sits in exactly one leaf of at most `max_leaf`, inside
+/// the leaf's box; every child box lies inside its parent's.
+fn check_invariants(name: &str, bvh: &NativeBvh, scene: &Scene, max_leaf: usize) {
+    let mut seen = vec![0u32; scene.mesh.len()];
     let inside = |inner: &Bounds, outer: &Bounds| {
         inner.min.cmpge(outer.min).all() && inner.max.cmple(outer.max).all()
     };
-    let mut stack = vec![0usize];
-    while let Some(i) = stack.pop() {
-        let node = &bvh.nodes[i];
-        if node.is_leaf() {
-            assert!(
-                node.count as usize <= max_leaf,
-                "{name}: leaf {i} holds {} > {max_leaf}",
-                node.count
-            );
-            for slot in node.offset as usize..(node.offset + node.count as u32) as usize {
-                let prim = bvh.prim_order[slot] as usize;
-                seen[prim] += 1;
+    let nodes = bvh.triangle_nodes();
+    let mut stack = vec![(0usize, None::<Bounds>)];
+    while let Some((i, parent)) = stack.pop() {
+        for (r, b) in nodes[i].children() {
+            if let Some(p) = parent {
                 assert!(
-                    inside(&boxes[prim], &node.bounds()),
-                    "{name}: primitive {prim} sticks out of leaf {i}"
+                    inside(&b, &p),
+                    "{name}: a child of node {i} sticks out of it"
                 );
             }
-        } else {
-            for child in [i + 1, node.offset as usize] {
+            if is_leaf(r) {
+                let prims = bvh.leaf_triangles(r);
                 assert!(
-                    inside(&bvh.nodes[child].bounds(), &node.bounds()),
-                    "{name}: child {child} outside parent {i}"
+                    prims.len() <= max_leaf,
+                    "{name}: a leaf holds {} > {max_leaf} ({} blocks)",
+                    prims.len(),
+                    leaf_count(r)
                 );
-                stack.push(child);
+                for prim in prims {
+                    seen[prim as usize] += 1;
+                    for corner in scene.mesh.corners(prim as usize) {
+                        assert!(
+                            inside(
+                                &Bounds {
+                                    min: corner,
+                                    max: corner
+                                },
+                                &b
+                            ),
+                            "{name}: triangle {prim} sticks out of its leaf"
+                        );
+                    }
+                }
+            } else {
+                stack.push((r as usize, Some(b)));
             }
         }
     }
@@ -47,20 +61,8 @@ fn check_invariants(name: &str, bvh: &Bvh, boxes: &[Bounds], max_leaf: usize) {
     let doubled = seen.iter().filter(|&&n| n > 1).count();
     assert!(
         missing == 0 && doubled == 0,
-        "{name}: {missing} primitives in no leaf, {doubled} in several"
+        "{name}: {missing} triangles in no leaf, {doubled} in several"
     );
-}
-
-fn triangle_boxes(scene: &Scene) -> Vec<Bounds> {
-    (0..scene.mesh.len())
-        .map(|i| {
-            let mut b = Bounds::EMPTY;
-            for p in scene.mesh.corners(i) {
-                b.grow(p);
-            }
-            b
-        })
-        .collect()
 }
 
 #[test]
@@ -72,14 +74,25 @@ fn every_primitive_sits_in_exactly_one_bounded_leaf() {
         "basic/plane1024.dae",
     ] {
         let scene = scene_or_skip!(rel);
-        let boxes = triangle_boxes(&scene);
-        for (method, leaf) in [
-            (BuildMethod::Sah, 4),
-            (BuildMethod::Sah, 1),
-            (BuildMethod::Median, 8),
+        for (method, leaf, triangle) in [
+            (BuildMethod::Sah, 4, TriangleMode::MollerTrumbore),
+            (BuildMethod::Sah, 1, TriangleMode::MollerTrumbore),
+            (BuildMethod::Sah, 4, TriangleMode::Watertight),
+            (BuildMethod::Median, 8, TriangleMode::MollerTrumbore),
         ] {
-            let bvh = Bvh::build(&boxes, leaf, method);
-            check_invariants(&format!("{rel} {method:?} leaf {leaf}"), &bvh, &boxes, leaf);
+            let options = NativeOptions {
+                method,
+                max_leaf: leaf,
+                triangle,
+                ..NativeOptions::default()
+            };
+            let bvh = NativeBvh::build(&scene, &options).expect("builds");
+            check_invariants(
+                &format!("{rel} {method:?} leaf {leaf} {triangle:?}"),
+                &bvh,
+                &scene,
+                leaf,
+            );
         }
     }
 }
@@ -88,9 +101,17 @@ fn every_primitive_sits_in_exactly_one_bounded_leaf() {
 fn sah_costs_less_than_median_split_on_scanned_meshes() {
     for rel in ["sky/CBbunny.dae", "meshedit/maxplanck.dae", "sky/bunny.dae"] {
         let scene = scene_or_skip!(rel);
-        let boxes = triangle_boxes(&scene);
-        let sah = Bvh::build(&boxes, 4, BuildMethod::Sah).sah_cost();
-        let median = Bvh::build(&boxes, 4, BuildMethod::Median).sah_cost();
+        let cost = |method| {
+            let options = NativeOptions {
+                method,
+                ..NativeOptions::default()
+            };
+            NativeBvh::build(&scene, &options)
+                .expect("builds")
+                .shape()
+                .sah_cost
+        };
+        let (sah, median) = (cost(BuildMethod::Sah), cost(BuildMethod::Median));
         println!(
             "{rel}: SAH cost {sah:.2}, median split {median:.2} ({:.0}% lower)",
             100.0 * (1.0 - sah / median)
@@ -172,9 +193,9 @@ fn native_bvh_agrees_with_brute_force_on_random_rays() {
             .iter()
             .map(|r| brute.closest_hit(r, &mut TraceCounters::default()))
             .collect();
-        // Both triangle tests, on the 8-wide (AVX, where the CPU has it)
-        // and the 4-wide (SSE) traversal.
-        for (mode, wide8) in [
+        // Both triangle tests, on the AVX2 (where the CPU has it) and the
+        // scalar traversal.
+        for (mode, simd) in [
             (TriangleMode::MollerTrumbore, true),
             (TriangleMode::MollerTrumbore, false),
             (TriangleMode::Watertight, true),
@@ -184,10 +205,11 @@ fn native_bvh_agrees_with_brute_force_on_random_rays() {
                 &scene,
                 &NativeOptions {
                     triangle: mode,
-                    wide8,
+                    simd,
                     ..NativeOptions::default()
                 },
-            );
+            )
+            .expect("builds");
             let a = |r: &Ray| native.closest_hit(r, &mut TraceCounters::default());
             let b = |r: &Ray| expected[index_in(&rays, r)];
             // t within 1e-5 relative; watertight and Möller–Trumbore may
@@ -199,8 +221,8 @@ fn native_bvh_agrees_with_brute_force_on_random_rays() {
             };
             assert_agree(
                 &format!(
-                    "{rel} native {mode:?} {}-wide vs brute force",
-                    native.width()
+                    "{rel} native {mode:?} {} vs brute force",
+                    if native.simd() { "AVX2" } else { "scalar" }
                 ),
                 &a,
                 &b,
@@ -229,7 +251,7 @@ fn native_bvh_agrees_with_brute_force_on_random_rays() {
 #[test]
 fn the_default_scene_needs_no_shared_files() {
     let scene = common::default_scene();
-    let native = NativeBvh::build(&scene, &NativeOptions::default());
+    let native = NativeBvh::build(&scene, &NativeOptions::default()).expect("builds");
     let brute = BruteForce::build(&scene);
     let rays = rays::random_rays(&scene, 5_000, 3);
     let a = |r: &Ray| native.closest_hit(r, &mut TraceCounters::default());
@@ -247,7 +269,7 @@ fn the_default_scene_needs_no_shared_files() {
 #[test]
 fn untraceable_rays_are_misses_on_every_backend() {
     let scene = common::default_scene();
-    let native = NativeBvh::build(&scene, &NativeOptions::default());
+    let native = NativeBvh::build(&scene, &NativeOptions::default()).expect("builds");
     let brute = BruteForce::build(&scene);
     let nan = f32::NAN;
     let bad = [

@@ -31,7 +31,7 @@ const SCENES: &[&str] = &[
 fn embree_agrees_with_native_on_random_rays_in_every_shared_scene() {
     for rel in SCENES {
         let scene = scene_or_skip!(rel);
-        let native = NativeBvh::build(&scene, &NativeOptions::default());
+        let native = NativeBvh::build(&scene, &NativeOptions::default()).expect("native builds");
         for quality in [BuildQuality::Low, BuildQuality::High] {
             let embree = EmbreeAccel::build(
                 &scene,
@@ -80,7 +80,7 @@ fn embree_agrees_with_native_on_random_rays_in_every_shared_scene() {
 
 fn same_image(rel: &str, shading: Shading, spp: u32, max_rmse: f64) {
     let scene = scene_or_skip!(rel);
-    let native = NativeBvh::build(&scene, &NativeOptions::default());
+    let native = NativeBvh::build(&scene, &NativeOptions::default()).expect("native builds");
     let embree = EmbreeAccel::build(&scene, &EmbreeOptions::default()).expect("embree builds");
     let settings = RenderSettings {
         width: 64,
@@ -143,6 +143,7 @@ fn embree_errors_come_back_as_rust_errors_with_embrees_message() {
                 "unexpected message: {message}"
             );
         }
+        Err(other) => panic!("not an Embree error: {other}"),
         Ok(()) => panic!("a misaligned buffer was accepted"),
     }
 }

@@ -31,7 +31,7 @@ fn run(
     shading: Shading,
     camera: CameraMode,
 ) -> RenderOutput {
-    let accel = NativeBvh::build(scene, &NativeOptions::default());
+    let accel = NativeBvh::build(scene, &NativeOptions::default()).expect("native builds");
     let settings = RenderSettings {
         width: w,
         height: h,
@@ -284,7 +284,7 @@ fn bounce_images_sum_to_the_accumulated_image() {
 fn adaptive_sampling_stops_early_on_flat_background() {
     let scene = scene_or_skip!("sky/CBspheres_lambertian.dae");
     let (w, h, cap, batch) = (40u32, 30u32, 256u32, 16u32);
-    let accel = NativeBvh::build(&scene, &NativeOptions::default());
+    let accel = NativeBvh::build(&scene, &NativeOptions::default()).expect("native builds");
     let settings = RenderSettings {
         width: w,
         height: h,
@@ -346,7 +346,7 @@ fn adaptive_sampling_stops_early_on_flat_background() {
 #[test]
 fn same_seed_gives_the_same_image_for_any_thread_count() {
     let scene = common::default_scene();
-    let accel = NativeBvh::build(&scene, &NativeOptions::default());
+    let accel = NativeBvh::build(&scene, &NativeOptions::default()).expect("native builds");
     let mut films = Vec::new();
     for threads in [1, 2, 3] {
         let settings = RenderSettings {

@@ -92,31 +92,52 @@ impl TriangleTest for MollerTrumbore {
         [v0, v1 - v0, v2 - v0]
     }
 
+    /// A division-free prefilter compares the unnormalized barycentrics
+    /// with `|det|` (loosely enough never to reject a hit), so the division
+    /// runs only near the triangle; the decision itself is the classic one
+    /// on `u = U / det`, `v = V / det`. One lane of [`TriangleBlock4`] does
+    /// the same operations in the same order.
     #[inline(always)]
     fn intersect(tri: &[Vec3; 3], ray: &Ray, t_min: f32, t_max: f32) -> Option<(f32, f32, f32)> {
         let [v0, e1, e2] = *tri;
-        let p = ray.dir.cross(e2);
+        let d = ray.dir;
+        let p = d.cross(e2);
         let det = e1.dot(p);
-        if det.abs() < PARALLEL_DETERMINANT {
+        let abs = det.abs();
+        if !(abs >= PARALLEL_DETERMINANT) {
+            return None;
+        }
+        let sign = det.to_bits() & SIGN;
+        let s = ray.origin - v0;
+        let q = s.cross(e1);
+        let (u_det, v_det) = (s.dot(p), d.dot(q));
+        let (u_abs, v_abs) = (flip(u_det, sign), flip(v_det, sign));
+        if !(u_abs >= 0.0 && v_abs >= 0.0 && u_abs + v_abs <= abs * PREFILTER_SLACK) {
             return None;
         }
         let inv = 1.0 / det;
-        let s = ray.origin - v0;
-        let u = s.dot(p) * inv;
-        if !(0.0..=1.0).contains(&u) {
-            return None;
-        }
-        let q = s.cross(e1);
-        let v = ray.dir.dot(q) * inv;
-        if v < 0.0 || u + v > 1.0 {
+        let (u, v) = (u_det * inv, v_det * inv);
+        if !(u >= 0.0 && v >= 0.0 && u + v <= 1.0) {
             return None;
         }
         let t = e2.dot(q) * inv;
-        if t < t_min || t > t_max {
+        if !(t >= t_min && t <= t_max) {
             return None;
         }
         Some((t, u, v))
     }
+}
+
+const SIGN: u32 = 1 << 31;
+/// The prefilter's `u + v <= 1` is tested as `U + V <= |det| * slack`: the
+/// classic test's `fl(U / det) + fl(V / det) <= 1` allows a few ulps more.
+const PREFILTER_SLACK: f32 = 1.0 + 16.0 * f32::EPSILON;
+
+/// `x` with its sign flipped when `sign` has the sign bit: `x * sign(det)`
+/// without a multiplication.
+#[inline(always)]
+fn flip(x: f32, sign: u32) -> f32 {
+    f32::from_bits(x.to_bits() ^ sign)
 }
 
 pub struct Watertight;
@@ -180,27 +201,35 @@ impl TriangleTest for Watertight {
 }
 
 /// Four Möller–Trumbore triangles in structure-of-arrays form (`v0`,
-/// `e1`, `e2`, each as x, y, z lanes), tested against one ray at once.
-/// Unused lanes hold a degenerate triangle that the determinant test
-/// rejects.
+/// `e1`, `e2`, each as x, y, z lanes) with their primitive ids, tested
+/// against one ray at once. Unused lanes hold a degenerate triangle that
+/// the determinant test rejects.
 #[derive(Clone, Copy, Debug)]
-#[repr(C, align(16))]
+#[repr(C, align(32))]
 pub struct TriangleBlock4 {
-    pub v: [[[f32; 4]; 3]; 3],
+    v: [[[f32; 4]; 3]; 3],
+    prims: [u32; 4],
 }
 
+/// One lane's answer: distance and barycentrics.
+pub type LaneHit = (usize, f32, f32, f32);
+
 impl TriangleBlock4 {
-    /// Packs up to four triangles given as `[v0, e1, e2]`.
-    pub fn pack(tris: &[[Vec3; 3]]) -> TriangleBlock4 {
-        let mut v = [[[0.0f32; 4]; 3]; 3];
-        for (lane, tri) in tris.iter().take(4).enumerate() {
+    /// Packs up to four triangles given as `[v0, e1, e2]` with their ids.
+    pub fn pack(tris: &[([Vec3; 3], u32)]) -> TriangleBlock4 {
+        let mut block = TriangleBlock4 {
+            v: [[[0.0f32; 4]; 3]; 3],
+            prims: [u32::MAX; 4],
+        };
+        for (lane, (tri, prim)) in tris.iter().take(4).enumerate() {
             for (k, p) in tri.iter().enumerate() {
-                v[k][0][lane] = p.x;
-                v[k][1][lane] = p.y;
-                v[k][2][lane] = p.z;
+                block.v[k][0][lane] = p.x;
+                block.v[k][1][lane] = p.y;
+                block.v[k][2][lane] = p.z;
             }
+            block.prims[lane] = *prim;
         }
-        TriangleBlock4 { v }
+        block
     }
 
     /// Lane `i` as `[v0, e1, e2]`.
@@ -208,42 +237,36 @@ impl TriangleBlock4 {
         [0, 1, 2].map(|k| Vec3::new(self.v[k][0][i], self.v[k][1][i], self.v[k][2][i]))
     }
 
-    /// The nearest hit among the first `count` lanes: `(lane, t, u, v)`.
-    /// Same arithmetic, in the same order, as [`MollerTrumbore::intersect`],
-    /// so both give bit-identical answers.
+    /// The primitive id of lane `i`.
     #[inline(always)]
-    pub fn intersect(
-        &self,
-        count: usize,
-        ray: &Ray,
-        t_min: f32,
-        t_max: f32,
-    ) -> Option<(usize, f32, f32, f32)> {
+    pub fn prim(&self, i: usize) -> u32 {
+        self.prims[i]
+    }
+
+    /// The nearest hit in `[t_min, t_max]`: `(lane, t, u, v)`; on equal
+    /// distances the later lane.
+    #[inline(always)]
+    pub fn nearest(&self, ray: &Ray, t_min: f32, t_max: f32) -> Option<LaneHit> {
         #[cfg(target_arch = "x86_64")]
         {
-            // SAFETY: SSE/SSE2 are part of the x86_64 baseline; loads read
-            // 16-byte lanes of an aligned block.
-            unsafe { self.intersect_sse(count, ray, t_min, t_max) }
+            self.nearest_sse(ray, t_min, t_max)
         }
         #[cfg(not(target_arch = "x86_64"))]
         {
-            self.intersect_scalar(count, ray, t_min, t_max)
+            self.nearest_scalar(ray, t_min, t_max)
         }
     }
 
+    /// The scalar twin of the SIMD test: every lane through
+    /// [`MollerTrumbore::intersect`], then the same reduction.
     #[cfg_attr(target_arch = "x86_64", allow(dead_code))]
-    fn intersect_scalar(
-        &self,
-        count: usize,
-        ray: &Ray,
-        t_min: f32,
-        mut t_max: f32,
-    ) -> Option<(usize, f32, f32, f32)> {
-        let mut best = None;
-        for i in 0..count.min(4) {
+    fn nearest_scalar(&self, ray: &Ray, t_min: f32, t_max: f32) -> Option<LaneHit> {
+        let mut best: Option<LaneHit> = None;
+        for i in 0..4 {
             if let Some((t, u, v)) = MollerTrumbore::intersect(&self.lane(i), ray, t_min, t_max) {
-                t_max = t;
-                best = Some((i, t, u, v));
+                if best.is_none_or(|b| t <= b.1) {
+                    best = Some((i, t, u, v));
+                }
             }
         }
         best
@@ -251,82 +274,93 @@ impl TriangleBlock4 {
 
     #[cfg(target_arch = "x86_64")]
     #[inline(always)]
-    unsafe fn intersect_sse(
-        &self,
-        count: usize,
-        ray: &Ray,
-        t_min: f32,
-        t_max: f32,
-    ) -> Option<(usize, f32, f32, f32)> {
+    fn nearest_sse(&self, ray: &Ray, t_min: f32, t_max: f32) -> Option<LaneHit> {
         use std::arch::x86_64::*;
-        let load = |k: usize, axis: usize| _mm_load_ps(self.v[k][axis].as_ptr());
-        let (v0x, v0y, v0z) = (load(0, 0), load(0, 1), load(0, 2));
-        let (e1x, e1y, e1z) = (load(1, 0), load(1, 1), load(1, 2));
-        let (e2x, e2y, e2z) = (load(2, 0), load(2, 1), load(2, 2));
-        let (dx, dy, dz) = (
-            _mm_set1_ps(ray.dir.x),
-            _mm_set1_ps(ray.dir.y),
-            _mm_set1_ps(ray.dir.z),
-        );
-        let (mul, sub, add) = (
-            |a, b| _mm_mul_ps(a, b),
-            |a, b| _mm_sub_ps(a, b),
-            |a, b| _mm_add_ps(a, b),
-        );
-        // p = dir x e2 (glam's operand order)
-        let px = sub(mul(dy, e2z), mul(e2y, dz));
-        let py = sub(mul(dz, e2x), mul(e2z, dx));
-        let pz = sub(mul(dx, e2y), mul(e2x, dy));
-        let det = add(add(mul(e1x, px), mul(e1y, py)), mul(e1z, pz));
-        let abs = _mm_andnot_ps(_mm_set1_ps(-0.0), det);
-        let mut valid = _mm_cmpge_ps(abs, _mm_set1_ps(PARALLEL_DETERMINANT));
-        let inv = _mm_div_ps(_mm_set1_ps(1.0), det);
-        let sx = sub(_mm_set1_ps(ray.origin.x), v0x);
-        let sy = sub(_mm_set1_ps(ray.origin.y), v0y);
-        let sz = sub(_mm_set1_ps(ray.origin.z), v0z);
-        let u = mul(add(add(mul(sx, px), mul(sy, py)), mul(sz, pz)), inv);
-        let (zero, one) = (_mm_setzero_ps(), _mm_set1_ps(1.0));
-        valid = _mm_and_ps(
-            valid,
-            _mm_and_ps(_mm_cmpge_ps(u, zero), _mm_cmple_ps(u, one)),
-        );
-        // q = s x e1
-        let qx = sub(mul(sy, e1z), mul(e1y, sz));
-        let qy = sub(mul(sz, e1x), mul(e1z, sx));
-        let qz = sub(mul(sx, e1y), mul(e1x, sy));
-        let v = mul(add(add(mul(dx, qx), mul(dy, qy)), mul(dz, qz)), inv);
-        valid = _mm_and_ps(
-            valid,
-            _mm_and_ps(_mm_cmpge_ps(v, zero), _mm_cmple_ps(add(u, v), one)),
-        );
-        let t = mul(add(add(mul(e2x, qx), mul(e2y, qy)), mul(e2z, qz)), inv);
-        valid = _mm_and_ps(
-            valid,
-            _mm_and_ps(
-                _mm_cmpge_ps(t, _mm_set1_ps(t_min)),
-                _mm_cmple_ps(t, _mm_set1_ps(t_max)),
-            ),
-        );
-        let mut mask = _mm_movemask_ps(valid) as u32 & ((1u32 << count.min(4)) - 1);
-        if mask == 0 {
-            return None;
-        }
-        let (mut ts, mut us, mut vs) = ([0.0f32; 4], [0.0f32; 4], [0.0f32; 4]);
-        _mm_storeu_ps(ts.as_mut_ptr(), t);
-        _mm_storeu_ps(us.as_mut_ptr(), u);
-        _mm_storeu_ps(vs.as_mut_ptr(), v);
-        // The nearest valid lane; on equal t the later lane, as the scalar
-        // loop (which accepts t == t_max) does.
-        let mut best = mask.trailing_zeros() as usize;
-        mask &= mask - 1;
-        while mask != 0 {
-            let i = mask.trailing_zeros() as usize;
-            if ts[i] <= ts[best] {
-                best = i;
+        // SAFETY: SSE and SSE2 are part of the x86_64 baseline; every load
+        // reads four floats of this 32-byte aligned block.
+        unsafe {
+            let load = |k: usize, axis: usize| _mm_load_ps(self.v[k][axis].as_ptr());
+            let (v0x, v0y, v0z) = (load(0, 0), load(0, 1), load(0, 2));
+            let (e1x, e1y, e1z) = (load(1, 0), load(1, 1), load(1, 2));
+            let (e2x, e2y, e2z) = (load(2, 0), load(2, 1), load(2, 2));
+            let (dx, dy, dz) = (
+                _mm_set1_ps(ray.dir.x),
+                _mm_set1_ps(ray.dir.y),
+                _mm_set1_ps(ray.dir.z),
+            );
+            let (mul, sub, add) = (
+                |a, b| _mm_mul_ps(a, b),
+                |a, b| _mm_sub_ps(a, b),
+                |a, b| _mm_add_ps(a, b),
+            );
+            // p = dir x e2 (glam's operand order)
+            let px = sub(mul(dy, e2z), mul(e2y, dz));
+            let py = sub(mul(dz, e2x), mul(e2z, dx));
+            let pz = sub(mul(dx, e2y), mul(e2x, dy));
+            let det = add(add(mul(e1x, px), mul(e1y, py)), mul(e1z, pz));
+            let sign_bit = _mm_set1_ps(-0.0);
+            let abs = _mm_andnot_ps(sign_bit, det);
+            let sign = _mm_and_ps(sign_bit, det);
+            let sx = sub(_mm_set1_ps(ray.origin.x), v0x);
+            let sy = sub(_mm_set1_ps(ray.origin.y), v0y);
+            let sz = sub(_mm_set1_ps(ray.origin.z), v0z);
+            // q = s x e1
+            let qx = sub(mul(sy, e1z), mul(e1y, sz));
+            let qy = sub(mul(sz, e1x), mul(e1z, sx));
+            let qz = sub(mul(sx, e1y), mul(e1x, sy));
+            let u_det = add(add(mul(sx, px), mul(sy, py)), mul(sz, pz));
+            let v_det = add(add(mul(dx, qx), mul(dy, qy)), mul(dz, qz));
+            let (u_abs, v_abs) = (_mm_xor_ps(u_det, sign), _mm_xor_ps(v_det, sign));
+            let zero = _mm_setzero_ps();
+            let inside = _mm_and_ps(
+                _mm_and_ps(
+                    _mm_cmpge_ps(abs, _mm_set1_ps(PARALLEL_DETERMINANT)),
+                    _mm_cmpge_ps(u_abs, zero),
+                ),
+                _mm_and_ps(
+                    _mm_cmpge_ps(v_abs, zero),
+                    _mm_cmple_ps(add(u_abs, v_abs), mul(abs, _mm_set1_ps(PREFILTER_SLACK))),
+                ),
+            );
+            if _mm_movemask_ps(inside) == 0 {
+                return None;
             }
+            let inv = _mm_div_ps(_mm_set1_ps(1.0), det);
+            let (u, v) = (mul(u_det, inv), mul(v_det, inv));
+            let t = mul(add(add(mul(e2x, qx), mul(e2y, qy)), mul(e2z, qz)), inv);
+            let valid = _mm_and_ps(
+                _mm_and_ps(
+                    inside,
+                    _mm_and_ps(
+                        _mm_and_ps(_mm_cmpge_ps(u, zero), _mm_cmpge_ps(v, zero)),
+                        _mm_cmple_ps(add(u, v), _mm_set1_ps(1.0)),
+                    ),
+                ),
+                _mm_and_ps(
+                    _mm_cmpge_ps(t, _mm_set1_ps(t_min)),
+                    _mm_cmple_ps(t, _mm_set1_ps(t_max)),
+                ),
+            );
+            let mut mask = _mm_movemask_ps(valid) as u32;
+            if mask == 0 {
+                return None;
+            }
+            let mut ts = [0.0f32; 4];
+            _mm_storeu_ps(ts.as_mut_ptr(), t);
+            let mut best = mask.trailing_zeros() as usize;
             mask &= mask - 1;
+            while mask != 0 {
+                let i = mask.trailing_zeros() as usize;
+                if ts[i] <= ts[best] {
+                    best = i;
+                }
+                mask &= mask - 1;
+            }
+            let (mut us, mut vs) = ([0.0f32; 4], [0.0f32; 4]);
+            _mm_storeu_ps(us.as_mut_ptr(), u);
+            _mm_storeu_ps(vs.as_mut_ptr(), v);
+            Some((best, ts[best], us[best], vs[best]))
         }
-        Some((best, ts[best], us[best], vs[best]))
     }
 }
 
@@ -385,25 +419,26 @@ mod tests {
         };
         let mut hits = 0;
         for _ in 0..20_000 {
-            let tris: Vec<[Vec3; 3]> = (0..4)
-                .map(|_| {
+            let count = 1 + (next().abs() * 3.99) as usize;
+            let tris: Vec<([Vec3; 3], u32)> = (0..count as u32)
+                .map(|i| {
                     let a = Vec3::new(next(), next(), next());
-                    MollerTrumbore::prepare(
+                    let tri = MollerTrumbore::prepare(
                         a,
                         a + Vec3::new(next(), next(), next()) * 0.5,
                         a + Vec3::new(next(), next(), next()) * 0.5,
-                    )
+                    );
+                    (tri, i)
                 })
                 .collect();
             let block = TriangleBlock4::pack(&tris);
             // Aim near a random lane's centroid so that many rays hit.
-            let [v0, e1, e2] = tris[(next().abs() * 3.99) as usize];
+            let [v0, e1, e2] = tris[(next().abs() * (count as f32 - 0.01)) as usize].0;
             let target = v0 + (e1 + e2) / 3.0 + Vec3::new(next(), next(), next()) * 0.1;
             let origin = Vec3::new(next(), next(), next()) * 2.0;
             let ray = Ray::new(origin, (target - origin).normalize());
-            let count = 1 + (next().abs() * 3.99) as usize;
-            let simd = block.intersect(count, &ray, 0.0, f32::INFINITY);
-            let scalar = block.intersect_scalar(count, &ray, 0.0, f32::INFINITY);
+            let simd = block.nearest(&ray, 0.0, f32::INFINITY);
+            let scalar = block.nearest_scalar(&ray, 0.0, f32::INFINITY);
             assert_eq!(
                 simd.map(|h| (h.0, h.1.to_bits(), h.2.to_bits(), h.3.to_bits())),
                 scalar.map(|h| (h.0, h.1.to_bits(), h.2.to_bits(), h.3.to_bits()))

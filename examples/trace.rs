@@ -1,0 +1,83 @@
+//! Developer tool: one-thread throughput of the compared backends on the
+//! report's ray kinds, interleaved so both see the same machine state.
+//! Run pinned: `taskset -c 1 cargo run --release --example trace -- \
+//! [--rays N] [--repeats R] scene.dae...`
+
+use std::time::Instant;
+
+use hybrid::accel::config::COMPARED;
+use hybrid::accel::{Accel, BackendConfig};
+use hybrid::report::measure::{on_threads, ray_sets, trace_all, Timing};
+use hybrid::scene::{collada, NormalMode};
+
+fn main() {
+    let mut args: Vec<String> = std::env::args().skip(1).collect();
+    let mut take = |flag: &str, default: usize| -> usize {
+        match args.iter().position(|a| a == flag) {
+            Some(i) => {
+                let v = args[i + 1].parse().expect("a number");
+                args.drain(i..i + 2);
+                v
+            }
+            None => default,
+        }
+    };
+    let rays = take("--rays", 1_000_000);
+    let repeats = take("--repeats", 5);
+    on_threads(1, || {
+        for path in &args {
+            let scene = collada::load(path.as_ref(), NormalMode::Smooth).expect("scene loads");
+            let builds: Vec<Timing> = COMPARED
+                .iter()
+                .map(|c| {
+                    let c = c.with_threads(1);
+                    let mut v = Vec::new();
+                    for _ in 0..repeats + 1 {
+                        let t = Instant::now();
+                        std::hint::black_box(c.build(&scene).expect("builds"));
+                        v.push(t.elapsed().as_secs_f64());
+                    }
+                    Timing::from_samples(v[1..].to_vec())
+                })
+                .collect();
+            let backends: Vec<_> = COMPARED
+                .iter()
+                .map(|c| c.with_threads(1).build(&scene).expect("builds"))
+                .collect();
+            println!(
+                "{path}: {} triangles; build native {:.2} ms, embree {:.2} ms: {:.2}x ; SAH cost {:.2}",
+                scene.triangle_count(),
+                builds[0].median * 1e3,
+                builds[1].median * 1e3,
+                builds[1].median / builds[0].median,
+                backends[0].stats().sah_cost
+            );
+            let finder = BackendConfig::NATIVE.build(&scene).expect("builds");
+            for set in ray_sets(&scene, &finder, rays) {
+                let mut times = [Vec::new(), Vec::new()];
+                for round in 0..repeats + 1 {
+                    for (i, b) in backends.iter().enumerate() {
+                        let t = Instant::now();
+                        std::hint::black_box(trace_all(b, &set.rays, set.query, 1));
+                        if round > 0 {
+                            times[i].push(t.elapsed().as_secs_f64());
+                        }
+                    }
+                }
+                let [n, e] = times.map(Timing::from_samples);
+                let m = |t: &Timing| set.rays.len() as f64 / t.median / 1e6;
+                let spread = |t: &Timing| 100.0 * (t.max - t.min) / t.median;
+                println!(
+                    "  {:10} {:>8} rays: native {:7.2} Mrays/s (±{:.0}%), embree {:7.2} (±{:.0}%): {:.2}x",
+                    set.kind,
+                    set.rays.len(),
+                    m(&n),
+                    spread(&n),
+                    m(&e),
+                    spread(&e),
+                    m(&n) / m(&e)
+                );
+            }
+        }
+    });
+}

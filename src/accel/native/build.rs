@@ -1,0 +1,611 @@
+//! The builder of the 8-wide tree: binned SAH (Wald 2007, "On fast
+//! construction of SAH-based bounding volume hierarchies") over primitive
+//! boxes, forming wide nodes directly the way Embree's wide builders do:
+//! a node starts with one child holding all its primitives and keeps
+//! splitting the child with the largest surface area until it has eight
+//! or none can be split. Every split is a binary SAH split, so the tree is
+//! the binary SAH tree with its levels grouped; its SAH cost is reported
+//! as the binary tree's.
+//!
+//! References are partitioned in place in one array; subtrees above
+//! [`PARALLEL_THRESHOLD`] primitives are built in parallel (rayon), each
+//! into its own node list that the parent appends and relocates.
+
+use glam::Vec3A;
+use rayon::prelude::*;
+
+use super::node::{is_leaf, leaf, ChildRef, Node8, EMPTY, WIDTH};
+use crate::scene::Bounds;
+
+/// How splits are chosen.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum BuildMethod {
+    /// Binned SAH over all three axes.
+    #[default]
+    Sah,
+    /// Object median on the widest centroid axis: the baseline the SAH is
+    /// measured against.
+    Median,
+}
+
+crate::choice!(BuildMethod { Sah => "sah", Median => "median" });
+
+/// Cost of a binary inner node relative to one leaf block test.
+pub const TRAVERSAL_COST: f32 = 1.0;
+/// Triangles tested together by one SIMD leaf test (see `triangle.rs`):
+/// leaves cost one test per started block, so the builder fills leaves
+/// rather than splitting them further.
+pub const LEAF_BLOCK: usize = 4;
+const BINS: usize = 16;
+/// Below this many primitives a subtree is built on the calling thread.
+const PARALLEL_THRESHOLD: usize = 4096;
+
+/// Cost of a leaf of `n` primitives, in block tests.
+pub fn leaf_cost(n: usize) -> f32 {
+    n.div_ceil(LEAF_BLOCK) as f32
+}
+
+/// Shape of the built tree.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct TreeShape {
+    /// Wide nodes and leaves.
+    pub nodes: usize,
+    pub leaves: usize,
+    /// Levels of wide nodes (a tree of one node has depth 1).
+    pub depth: usize,
+    /// Deepest chain of binary splits.
+    pub binary_depth: usize,
+    /// SAH cost of the binary tree (MacDonald and Booth 1990): expected
+    /// cost of a random ray through the root, [`TRAVERSAL_COST`] per inner
+    /// node and [`leaf_cost`] per leaf.
+    pub sah_cost: f64,
+}
+
+/// A built tree: nodes in depth-first order (root first), leaves pointing
+/// at runs of `prim_order` (leaf slot -> primitive index).
+pub struct BuiltTree {
+    pub nodes: Vec<Node8>,
+    pub prim_order: Vec<u32>,
+    pub shape: TreeShape,
+}
+
+/// An axis-aligned box in SIMD registers.
+#[derive(Clone, Copy, Debug)]
+struct Aabb {
+    lo: Vec3A,
+    hi: Vec3A,
+}
+
+impl Aabb {
+    const EMPTY: Aabb = Aabb {
+        lo: Vec3A::splat(f32::INFINITY),
+        hi: Vec3A::splat(f32::NEG_INFINITY),
+    };
+
+    #[inline(always)]
+    fn grow(&mut self, o: &Aabb) {
+        self.lo = self.lo.min(o.lo);
+        self.hi = self.hi.max(o.hi);
+    }
+
+    #[inline(always)]
+    fn grow_point(&mut self, p: Vec3A) {
+        self.lo = self.lo.min(p);
+        self.hi = self.hi.max(p);
+    }
+
+    /// Half the surface area (the SAH only uses ratios).
+    #[inline(always)]
+    fn half_area(&self) -> f32 {
+        let d = (self.hi - self.lo).max(Vec3A::ZERO);
+        d.x * d.y + d.y * d.z + d.z * d.x
+    }
+
+    /// Twice the centre: centroids are binned in this space.
+    #[inline(always)]
+    fn centroid2(&self) -> Vec3A {
+        self.lo + self.hi
+    }
+
+    fn bounds(&self) -> Bounds {
+        Bounds {
+            min: self.lo.into(),
+            max: self.hi.into(),
+        }
+    }
+}
+
+#[derive(Clone, Copy)]
+struct PrimRef {
+    aabb: Aabb,
+    index: u32,
+}
+
+/// How a range is split.
+#[derive(Clone, Copy, Debug)]
+enum Split {
+    /// Bins `< boundary` of `axis` go left.
+    Binned {
+        axis: usize,
+        boundary: usize,
+        lo: f32,
+        scale: f32,
+    },
+    /// Object median along `axis`.
+    Median { axis: usize },
+    /// Centroids cannot be separated: the first half goes left.
+    Half,
+}
+
+/// A range of references with its bounds and, unless it becomes a leaf,
+/// the split it will take.
+#[derive(Clone, Copy)]
+struct Record {
+    start: usize,
+    end: usize,
+    geom: Aabb,
+    cent: Aabb,
+    split: Option<Split>,
+    binary_depth: usize,
+}
+
+impl Record {
+    fn len(&self) -> usize {
+        self.end - self.start
+    }
+}
+
+/// Tree statistics summed over subtrees.
+#[derive(Clone, Copy, Default)]
+struct Stats {
+    nodes: usize,
+    leaves: usize,
+    depth: usize,
+    binary_depth: usize,
+    /// Unnormalized SAH cost (half areas).
+    sah: f64,
+}
+
+impl Stats {
+    fn add_child(&mut self, o: &Stats) {
+        self.nodes += o.nodes;
+        self.leaves += o.leaves;
+        self.depth = self.depth.max(o.depth);
+        self.binary_depth = self.binary_depth.max(o.binary_depth);
+        self.sah += o.sah;
+    }
+}
+
+#[derive(Clone, Copy)]
+struct Settings {
+    max_leaf: usize,
+    method: BuildMethod,
+}
+
+/// Builds the tree over `boxes`. Leaves hold at most `max_leaf`
+/// primitives (1..=16) unless their centroids cannot be separated.
+pub fn build(boxes: &[Bounds], max_leaf: usize, method: BuildMethod) -> BuiltTree {
+    let settings = Settings {
+        max_leaf: max_leaf.clamp(1, 16),
+        method,
+    };
+    let mut refs: Vec<PrimRef> = boxes
+        .iter()
+        .enumerate()
+        .map(|(i, b)| PrimRef {
+            aabb: Aabb {
+                lo: b.min.into(),
+                hi: b.max.into(),
+            },
+            index: i as u32,
+        })
+        .collect();
+    if refs.is_empty() {
+        return BuiltTree {
+            nodes: Vec::new(),
+            prim_order: Vec::new(),
+            shape: TreeShape::default(),
+        };
+    }
+    let (geom, cent) = bounds_of(&refs);
+    let mut root = Record {
+        start: 0,
+        end: refs.len(),
+        geom,
+        cent,
+        split: None,
+        binary_depth: 0,
+    };
+    root.split = find_split(&refs, &root, &settings);
+    let mut nodes = Vec::with_capacity(refs.len() / 4 + 1);
+    let (r, stats) = if root.split.is_some() {
+        subtree(&mut refs, 0, root, 1, &settings, &mut nodes)
+    } else {
+        // A single leaf still gets a root node, so traversal always starts
+        // at node 0.
+        let (r, mut stats) = make_leaf(&root);
+        nodes.push(Node8::new(&[(r, geom.bounds())]));
+        stats.nodes = 1;
+        stats.depth = 1;
+        (0, stats)
+    };
+    debug_assert_eq!(r, 0, "the root is node 0");
+    let root_area = geom.half_area() as f64;
+    BuiltTree {
+        nodes,
+        prim_order: refs.iter().map(|r| r.index).collect(),
+        shape: TreeShape {
+            nodes: stats.nodes,
+            leaves: stats.leaves,
+            depth: stats.depth,
+            binary_depth: stats.binary_depth,
+            sah_cost: if root_area > 0.0 {
+                stats.sah / root_area
+            } else {
+                0.0
+            },
+        },
+    }
+}
+
+fn bounds_of(refs: &[PrimRef]) -> (Aabb, Aabb) {
+    let mut geom = Aabb::EMPTY;
+    let mut cent = Aabb::EMPTY;
+    for r in refs {
+        geom.grow(&r.aabb);
+        cent.grow_point(r.aabb.centroid2());
+    }
+    (geom, cent)
+}
+
+fn make_leaf(rec: &Record) -> (ChildRef, Stats) {
+    let n = rec.len();
+    let stats = Stats {
+        leaves: 1,
+        binary_depth: rec.binary_depth,
+        sah: rec.geom.half_area() as f64 * leaf_cost(n) as f64,
+        ..Stats::default()
+    };
+    // Slots of `prim_order`; `NativeBvh` later points leaves at their data.
+    (leaf(rec.start as u32, n as u32), stats)
+}
+
+/// Builds the wide node for `rec` (which has a split) and everything
+/// below it, appending nodes to `out`; `refs` is the whole array.
+fn subtree(
+    refs: &mut [PrimRef],
+    base: usize,
+    rec: Record,
+    depth: usize,
+    settings: &Settings,
+    out: &mut Vec<Node8>,
+) -> (ChildRef, Stats) {
+    // refs[..] covers rec's range offset by `base`.
+    let local = |r: &Record| (r.start - base)..(r.end - base);
+    let mut stats = Stats {
+        nodes: 1,
+        depth,
+        ..Stats::default()
+    };
+    let mut children: Vec<Record> = Vec::with_capacity(WIDTH);
+    children.push(rec);
+    while children.len() < WIDTH {
+        let Some(i) = (0..children.len())
+            .filter(|&i| children[i].split.is_some())
+            .max_by(|&a, &b| {
+                children[a]
+                    .geom
+                    .half_area()
+                    .total_cmp(&children[b].geom.half_area())
+            })
+        else {
+            break;
+        };
+        let c = children.remove(i);
+        stats.sah += c.geom.half_area() as f64 * TRAVERSAL_COST as f64;
+        let (mut l, mut r) = apply_split(&mut refs[local(&c)], &c);
+        l.split = find_split(&refs[local(&l)], &l, settings);
+        r.split = find_split(&refs[local(&r)], &r, settings);
+        children.insert(i, r);
+        children.insert(i, l);
+    }
+    let me = out.len();
+    out.push(Node8::new(&[(EMPTY, Bounds::EMPTY)]));
+    let mut slots: Vec<(ChildRef, Bounds)> = Vec::with_capacity(children.len());
+    if rec.len() >= PARALLEL_THRESHOLD {
+        // Disjoint slices of the references, one per child, in order.
+        let mut parts = Vec::with_capacity(children.len());
+        let mut rest = &mut refs[..];
+        let mut offset = base;
+        for c in &children {
+            let (head, tail) = rest.split_at_mut(c.end - offset);
+            parts.push((head, offset, *c));
+            rest = tail;
+            offset = c.end;
+        }
+        let built: Vec<(ChildRef, Stats, Vec<Node8>)> = parts
+            .into_par_iter()
+            .map(|(part, part_base, c)| {
+                let mut nodes = Vec::new();
+                let (r, s) = child(part, part_base, c, depth + 1, settings, &mut nodes);
+                (r, s, nodes)
+            })
+            .collect();
+        for ((r, s, nodes), c) in built.into_iter().zip(&children) {
+            let offset = out.len() as u32;
+            let relocate = |r: ChildRef| {
+                if r == EMPTY || is_leaf(r) {
+                    r
+                } else {
+                    r + offset
+                }
+            };
+            out.extend(nodes.into_iter().map(|mut n| {
+                n.child = n.child.map(relocate);
+                n
+            }));
+            slots.push((relocate(r), c.geom.bounds()));
+            stats.add_child(&s);
+        }
+    } else {
+        for c in &children {
+            let (r, s) = child(&mut refs[local(c)], c.start, *c, depth + 1, settings, out);
+            slots.push((r, c.geom.bounds()));
+            stats.add_child(&s);
+        }
+    }
+    out[me] = Node8::new(&slots);
+    (me as ChildRef, stats)
+}
+
+/// A child of a node: a leaf, or the subtree under it.
+fn child(
+    refs: &mut [PrimRef],
+    base: usize,
+    rec: Record,
+    depth: usize,
+    settings: &Settings,
+    out: &mut Vec<Node8>,
+) -> (ChildRef, Stats) {
+    match rec.split {
+        None => make_leaf(&rec),
+        Some(_) => subtree(refs, base, rec, depth, settings, out),
+    }
+}
+
+/// The split `rec` should take, or `None` when it becomes a leaf.
+fn find_split(refs: &[PrimRef], rec: &Record, settings: &Settings) -> Option<Split> {
+    let n = rec.len();
+    if n == 1 {
+        return None;
+    }
+    let extent = rec.cent.hi - rec.cent.lo;
+    let widest = if extent.x >= extent.y && extent.x >= extent.z {
+        0
+    } else if extent.y >= extent.z {
+        1
+    } else {
+        2
+    };
+    if extent.max_element() <= 0.0 {
+        return (n > settings.max_leaf).then_some(Split::Half);
+    }
+    match settings.method {
+        BuildMethod::Median => (n > settings.max_leaf).then_some(Split::Median { axis: widest }),
+        BuildMethod::Sah => {
+            let best = binned_sah(refs, rec);
+            let leaf = rec.geom.half_area() * leaf_cost(n);
+            match best {
+                Some((cost, split)) => {
+                    let split_cost = rec.geom.half_area() * TRAVERSAL_COST + cost;
+                    (n > settings.max_leaf || split_cost < leaf).then_some(split)
+                }
+                None => (n > settings.max_leaf).then_some(Split::Half),
+            }
+        }
+    }
+}
+
+/// The cheapest binned split of `rec` over all axes: unnormalized cost
+/// (half areas times leaf costs of both sides) and the split.
+fn binned_sah(refs: &[PrimRef], rec: &Record) -> Option<(f32, Split)> {
+    let lo = rec.cent.lo;
+    let extent = rec.cent.hi - rec.cent.lo;
+    // Just under BINS so the largest centroid lands in the last bin.
+    let k = BINS as f32 * (1.0 - 1e-6);
+    let scale = Vec3A::select(extent.cmpgt(Vec3A::ZERO), k / extent, Vec3A::ZERO);
+    let mut boxes = [[Aabb::EMPTY; BINS]; 3];
+    let mut counts = [[0u32; BINS]; 3];
+    for r in refs {
+        let b = ((r.aabb.centroid2() - lo) * scale).to_array();
+        for axis in 0..3 {
+            let i = (b[axis] as usize).min(BINS - 1);
+            boxes[axis][i].grow(&r.aabb);
+            counts[axis][i] += 1;
+        }
+    }
+    let mut best: Option<(f32, Split)> = None;
+    for axis in 0..3 {
+        if extent[axis] <= 0.0 {
+            continue;
+        }
+        let (bins, count) = (&boxes[axis], &counts[axis]);
+        // Right sweep: cost of the right side of every boundary.
+        let mut right_cost = [0.0f32; BINS];
+        let mut right_count = [0usize; BINS];
+        let (mut acc, mut n) = (Aabb::EMPTY, 0usize);
+        for i in (1..BINS).rev() {
+            acc.grow(&bins[i]);
+            n += count[i] as usize;
+            right_cost[i] = if n > 0 {
+                acc.half_area() * leaf_cost(n)
+            } else {
+                0.0
+            };
+            right_count[i] = n;
+        }
+        let (mut acc, mut n) = (Aabb::EMPTY, 0usize);
+        for i in 0..BINS - 1 {
+            acc.grow(&bins[i]);
+            n += count[i] as usize;
+            if n == 0 || right_count[i + 1] == 0 {
+                continue;
+            }
+            let cost = acc.half_area() * leaf_cost(n) + right_cost[i + 1];
+            if best.is_none_or(|(c, _)| cost < c) {
+                best = Some((
+                    cost,
+                    Split::Binned {
+                        axis,
+                        boundary: i + 1,
+                        lo: lo[axis],
+                        scale: scale[axis],
+                    },
+                ));
+            }
+        }
+    }
+    best
+}
+
+/// Partitions `refs` (exactly `rec`'s range) by `rec`'s split; returns the
+/// two sides with their bounds (splits not yet chosen).
+fn apply_split(refs: &mut [PrimRef], rec: &Record) -> (Record, Record) {
+    let n = refs.len();
+    let mid = match rec.split {
+        Some(Split::Binned {
+            axis,
+            boundary,
+            lo,
+            scale,
+        }) => {
+            let left = |r: &PrimRef| {
+                ((((r.aabb.centroid2()[axis] - lo) * scale) as usize).min(BINS - 1)) < boundary
+            };
+            let (mut i, mut j) = (0, n);
+            while i < j {
+                if left(&refs[i]) {
+                    i += 1;
+                } else {
+                    j -= 1;
+                    refs.swap(i, j);
+                }
+            }
+            i
+        }
+        Some(Split::Median { axis }) => {
+            let mid = n / 2;
+            refs.select_nth_unstable_by(mid, |a, b| {
+                a.aabb.centroid2()[axis].total_cmp(&b.aabb.centroid2()[axis])
+            });
+            mid
+        }
+        Some(Split::Half) | None => n / 2,
+    };
+    // A binned split always separates (both sides have primitives), but
+    // keep the ranges valid whatever happens.
+    let mid = mid.clamp(1, n - 1);
+    let side = |part: &[PrimRef], start: usize| {
+        let (geom, cent) = bounds_of(part);
+        Record {
+            start,
+            end: start + part.len(),
+            geom,
+            cent,
+            split: None,
+            binary_depth: rec.binary_depth + 1,
+        }
+    };
+    (
+        side(&refs[..mid], rec.start),
+        side(&refs[mid..], rec.start + mid),
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::accel::native::node::{leaf_count, leaf_first};
+    use glam::Vec3;
+
+    fn random_boxes(n: usize) -> Vec<Bounds> {
+        let mut state = 12345u64;
+        let mut next = || {
+            state = state
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            ((state >> 40) as f32) / (1u64 << 24) as f32
+        };
+        (0..n)
+            .map(|_| {
+                let c = Vec3::new(next(), next(), next()) * 10.0;
+                let h = Vec3::new(next(), next(), next()) * 0.1;
+                Bounds {
+                    min: c - h,
+                    max: c + h,
+                }
+            })
+            .collect()
+    }
+
+    /// Every primitive in exactly one leaf of at most `max_leaf`.
+    fn leaf_sizes(tree: &BuiltTree) -> (Vec<u32>, u32) {
+        let mut seen = vec![0u32; tree.prim_order.len()];
+        let mut largest = 0;
+        for node in &tree.nodes {
+            for (r, _) in node.children() {
+                if is_leaf(r) {
+                    largest = largest.max(leaf_count(r));
+                    for slot in leaf_first(r)..leaf_first(r) + leaf_count(r) {
+                        seen[tree.prim_order[slot as usize] as usize] += 1;
+                    }
+                }
+            }
+        }
+        (seen, largest)
+    }
+
+    #[test]
+    fn identical_boxes_still_give_bounded_leaves() {
+        let boxes = vec![
+            Bounds {
+                min: Vec3::ZERO,
+                max: Vec3::ONE
+            };
+            100
+        ];
+        let tree = build(&boxes, 4, BuildMethod::Sah);
+        let (seen, largest) = leaf_sizes(&tree);
+        assert!(
+            largest <= 4,
+            "a leaf holds {largest} primitives with max_leaf 4"
+        );
+        assert!(
+            seen.iter().all(|&n| n == 1),
+            "a primitive is missing or doubled"
+        );
+    }
+
+    #[test]
+    fn sah_beats_median_on_random_boxes() {
+        let boxes = random_boxes(5000);
+        let sah = build(&boxes, 4, BuildMethod::Sah).shape.sah_cost;
+        let median = build(&boxes, 4, BuildMethod::Median).shape.sah_cost;
+        assert!(
+            sah < median,
+            "SAH cost {sah:.2} is not below median-split cost {median:.2}"
+        );
+    }
+
+    #[test]
+    fn parallel_and_sequential_builds_give_the_same_tree() {
+        let boxes = random_boxes(3 * PARALLEL_THRESHOLD);
+        let a = build(&boxes, 4, BuildMethod::Sah);
+        let b = crate::report::measure::on_threads(1, || build(&boxes, 4, BuildMethod::Sah));
+        assert_eq!(a.prim_order, b.prim_order);
+        assert_eq!(a.nodes.len(), b.nodes.len());
+        for (x, y) in a.nodes.iter().zip(&b.nodes) {
+            assert_eq!(x.child, y.child);
+        }
+    }
+}

@@ -1,0 +1,214 @@
+//! The 8-wide tree the native backend traverses: 256-byte nodes (four cache
+//! lines) holding eight child boxes as structure of arrays, eight child
+//! references and, per child, its place in a front-to-back order for each
+//! of the eight ray octants (Fuetterling et al. 2017, "Accelerated single
+//! ray tracing for wide vector units", HPG; the layout of tinybvh's
+//! BVH8_CPU). A ray picks its octant's order once and pushes its hit
+//! children in that order without sorting them.
+
+use glam::Vec3;
+
+use crate::scene::Bounds;
+
+/// Children per node.
+pub const WIDTH: usize = 8;
+
+/// A child reference: an inner node's index, or a leaf (`LEAF` set) with
+/// its first item (triangle block or sphere) and item count.
+pub type ChildRef = u32;
+const LEAF: u32 = 1 << 31;
+const COUNT_SHIFT: u32 = 27;
+/// Largest number of items (triangle blocks, spheres) one leaf holds.
+pub const MAX_LEAF_ITEMS: u32 = 16;
+/// Largest first item a leaf can name.
+pub const MAX_LEAF_FIRST: u32 = (1 << COUNT_SHIFT) - 1;
+/// An unused child slot (its box is empty, so no ray ever enters it).
+pub const EMPTY: ChildRef = u32::MAX;
+
+#[inline(always)]
+pub fn is_leaf(r: ChildRef) -> bool {
+    r & LEAF != 0
+}
+
+/// A leaf of `count` (1..=[`MAX_LEAF_ITEMS`]) items from `first`.
+pub fn leaf(first: u32, count: u32) -> ChildRef {
+    debug_assert!((1..=MAX_LEAF_ITEMS).contains(&count) && first <= MAX_LEAF_FIRST);
+    LEAF | ((count - 1) << COUNT_SHIFT) | first
+}
+
+#[inline(always)]
+pub fn leaf_first(r: ChildRef) -> u32 {
+    r & MAX_LEAF_FIRST
+}
+
+#[inline(always)]
+pub fn leaf_count(r: ChildRef) -> u32 {
+    ((r & !LEAF) >> COUNT_SHIFT) + 1
+}
+
+/// One node of the tree. Planes come in the order `lo_x, hi_x, lo_y, hi_y,
+/// lo_z, hi_z`, so a ray finds its near plane of axis `a` at
+/// `2 a + (dir_a < 0)` and the far plane next to it.
+#[derive(Clone, Copy, Debug)]
+#[repr(C, align(64))]
+pub struct Node8 {
+    pub(super) planes: [[f32; WIDTH]; 6],
+    pub(super) child: [ChildRef; WIDTH],
+    /// `order[i] >> (3 * octant) & 7` is the child at place `i` of the
+    /// octant's order, place 0 farthest and the last used place nearest.
+    pub(super) order: [u32; WIDTH],
+}
+
+impl Node8 {
+    /// A node over up to eight children with their boxes.
+    pub fn new(children: &[(ChildRef, Bounds)]) -> Node8 {
+        debug_assert!(!children.is_empty() && children.len() <= WIDTH);
+        let mut node = Node8 {
+            planes: [
+                [f32::INFINITY; WIDTH],
+                [f32::NEG_INFINITY; WIDTH],
+                [f32::INFINITY; WIDTH],
+                [f32::NEG_INFINITY; WIDTH],
+                [f32::INFINITY; WIDTH],
+                [f32::NEG_INFINITY; WIDTH],
+            ],
+            child: [EMPTY; WIDTH],
+            order: [0; WIDTH],
+        };
+        for (i, (r, b)) in children.iter().enumerate() {
+            node.child[i] = *r;
+            for axis in 0..3 {
+                node.planes[2 * axis][i] = b.min[axis];
+                node.planes[2 * axis + 1][i] = b.max[axis];
+            }
+        }
+        for octant in 0..8u32 {
+            // Distance of each child's centre along the octant's diagonal:
+            // a ray of that octant meets larger keys later.
+            let sign = Vec3::new(
+                if octant & 1 != 0 { 1.0 } else { -1.0 },
+                if octant & 2 != 0 { 1.0 } else { -1.0 },
+                if octant & 4 != 0 { 1.0 } else { -1.0 },
+            );
+            let mut places: Vec<usize> = (0..WIDTH).collect();
+            let key = |i: usize| match children.get(i) {
+                Some((_, b)) => b.center().dot(sign),
+                // Unused slots first (farthest): no ray enters them.
+                None => f32::INFINITY,
+            };
+            places.sort_by(|&a, &b| key(b).total_cmp(&key(a)).then(a.cmp(&b)));
+            for (place, &child) in places.iter().enumerate() {
+                node.order[place] |= (child as u32) << (3 * octant);
+            }
+        }
+        node
+    }
+
+    /// Child slot `i`: its reference and box (`None` when unused).
+    pub fn child(&self, i: usize) -> Option<(ChildRef, Bounds)> {
+        (self.child[i] != EMPTY).then(|| {
+            let p = &self.planes;
+            (
+                self.child[i],
+                Bounds {
+                    min: Vec3::new(p[0][i], p[2][i], p[4][i]),
+                    max: Vec3::new(p[1][i], p[3][i], p[5][i]),
+                },
+            )
+        })
+    }
+
+    /// The children in use.
+    pub fn children(&self) -> impl Iterator<Item = (ChildRef, Bounds)> + '_ {
+        (0..WIDTH).filter_map(|i| self.child(i))
+    }
+
+    /// The child slot at `place` of `octant`'s order.
+    #[inline(always)]
+    pub fn ordered(&self, octant: u32, place: usize) -> usize {
+        ((self.order[place] >> (3 * octant)) & 7) as usize
+    }
+
+    /// Points every leaf at `f(first, count)` (e.g. its first triangle
+    /// block).
+    pub(super) fn remap_leaves(&mut self, mut f: impl FnMut(u32, u32) -> ChildRef) {
+        for r in &mut self.child {
+            if *r != EMPTY && is_leaf(*r) {
+                *r = f(leaf_first(*r), leaf_count(*r));
+            }
+        }
+    }
+}
+
+/// For every 8-bit mask, the lanes whose bit is set, in increasing order,
+/// then the others: the shuffle that packs the set lanes to the front.
+pub const COMPRESS: [[u32; WIDTH]; 256] = {
+    let mut table = [[0u32; WIDTH]; 256];
+    let mut mask = 0;
+    while mask < 256 {
+        let mut out = 0;
+        let mut lane = 0;
+        while lane < WIDTH {
+            if mask & (1 << lane) != 0 {
+                table[mask][out] = lane as u32;
+                out += 1;
+            }
+            lane += 1;
+        }
+        lane = 0;
+        while lane < WIDTH {
+            if mask & (1 << lane) == 0 {
+                table[mask][out] = lane as u32;
+                out += 1;
+            }
+            lane += 1;
+        }
+        mask += 1;
+    }
+    table
+};
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn leaf_references_round_trip() {
+        for (first, count) in [(0, 1), (12345, 4), (MAX_LEAF_FIRST, MAX_LEAF_ITEMS)] {
+            let r = leaf(first, count);
+            assert!(is_leaf(r));
+            assert_eq!((leaf_first(r), leaf_count(r)), (first, count));
+        }
+        assert!(!is_leaf(7));
+    }
+
+    #[test]
+    fn octant_orders_put_the_nearest_child_last() {
+        let boxes: Vec<(ChildRef, Bounds)> = (0..3)
+            .map(|i| {
+                let c = Vec3::new(i as f32, 0.0, 0.0);
+                (
+                    i,
+                    Bounds {
+                        min: c - 0.1,
+                        max: c + 0.1,
+                    },
+                )
+            })
+            .collect();
+        let node = Node8::new(&boxes);
+        // Octant with +x: child 0 (smallest x) is met first, so last.
+        let plus_x = 0b111;
+        let order: Vec<usize> = (5..8).map(|p| node.ordered(plus_x, p)).collect();
+        assert_eq!(order, vec![2, 1, 0]);
+        let minus_x = 0b110;
+        let order: Vec<usize> = (5..8).map(|p| node.ordered(minus_x, p)).collect();
+        assert_eq!(order, vec![0, 1, 2]);
+    }
+
+    #[test]
+    fn compress_packs_set_lanes_first() {
+        assert_eq!(COMPRESS[0b1010_0110][..4], [1, 2, 5, 7]);
+        assert_eq!(COMPRESS[0xff], [0, 1, 2, 3, 4, 5, 6, 7]);
+    }
+}

@@ -1,0 +1,547 @@
+//! Walking the 8-wide tree: closest hit and any hit, each as an AVX2
+//! kernel (reached only with an [`Avx2`] token) and a portable scalar
+//! twin over the same nodes.
+//!
+//! Per ray, once: the reciprocal direction, the octant (which picks each
+//! axis's near and far plane, so the slab test needs no min/max per axis),
+//! and the octant's child order. Per node: one 8-wide slab test; one hit
+//! child is descended into directly; several are permuted into the octant's
+//! front-to-back order, the nearest is descended into and the others are
+//! pushed in one store (a compress shuffle from [`COMPRESS`]) with their
+//! entry distances. Closest-hit pops skip entries farther than the hit
+//! found so far; any-hit keeps no distances and stops at the first hit.
+//!
+//! Box tests, both conservative (they never cull a box the exact test
+//! would enter):
+//! - robust: `(plane - o) * (1 / d)` with the far distance scaled by
+//!   `1 + 2γ(3)` (Ize 2013, "Robust BVH ray traversal", JCGT 2(2));
+//! - fast: one fused multiply-add per plane, `plane * r - c` with per-ray
+//!   constants. With `r = fl(1 / d)` and `c = fl(o r)`, the fused result is
+//!   `(plane - o) r (1 + δ)` minus an absolute error below `|c| u (1 + 2u)`
+//!   (`u = 2^-24`) from rounding `o r`. Near planes therefore subtract
+//!   `c + |c| 2^-22`, and far planes use `r (1 + 2^-20)` and
+//!   `c (1 + 2^-20) - |c| 2^-21`: 16u of relative slack where Ize's form
+//!   needs about 6u, and an absolute margin above the rounding of `c`.
+//!   Rays whose `c` overflows take the robust form.
+
+use std::mem::MaybeUninit;
+
+use glam::Vec3;
+
+use super::cpu::Avx2;
+#[cfg(target_arch = "x86_64")]
+use super::node::COMPRESS;
+use super::node::{is_leaf, leaf_count, leaf_first, ChildRef, Node8, WIDTH};
+use super::BOX_FAR_SCALE;
+
+/// Deepest tree (in wide levels) the kernels' fixed stacks hold; deeper
+/// SAH trees are rebuilt by median splits (see `NativeBvh::build`).
+pub const MAX_DEPTH: usize = 64;
+/// Stack entries: each level leaves at most seven children behind, and a
+/// push writes eight.
+const STACK: usize = (WIDTH - 1) * MAX_DEPTH + WIDTH + 1;
+
+/// What a leaf test answers; implemented per primitive kind (triangle
+/// blocks, watertight triangles, spheres).
+pub trait Leaves {
+    /// The nearest hit among `count` items from `first` no farther than
+    /// `t_max`: its distance. The implementation remembers what it hit.
+    fn nearest(&mut self, first: u32, count: u32, t_max: f32) -> Option<f32>;
+    /// Whether any of the items is hit within `t_max`.
+    fn any(&mut self, first: u32, count: u32, t_max: f32) -> bool;
+}
+
+/// A ray prepared for the slab tests.
+#[derive(Clone, Copy, Debug)]
+pub struct BoxRay {
+    origin: Vec3,
+    inv_dir: Vec3,
+    t_min: f32,
+    /// `dir < 0` per axis: bit 0 x, bit 1 y, bit 2 z.
+    negative: u32,
+}
+
+impl BoxRay {
+    pub fn new(origin: Vec3, dir: Vec3, t_min: f32) -> BoxRay {
+        // Tiny direction components become 1e-20 of the same sign, so a
+        // slab through the origin gives 0 * huge = 0, never 0 * inf, and
+        // `o / d` stays finite for any coordinate below 1e18. A ray
+        // parallel to a slab is still never culled while inside it.
+        let safe = |d: f32| {
+            1.0 / if d.abs() < 1e-20 {
+                1e-20f32.copysign(d)
+            } else {
+                d
+            }
+        };
+        let inv_dir = Vec3::new(safe(dir.x), safe(dir.y), safe(dir.z));
+        let negative = (inv_dir.x < 0.0) as u32
+            | ((inv_dir.y < 0.0) as u32) << 1
+            | ((inv_dir.z < 0.0) as u32) << 2;
+        BoxRay {
+            origin,
+            inv_dir,
+            t_min,
+            negative,
+        }
+    }
+
+    /// Whether the fast box test's constants are finite for this ray.
+    #[inline(always)]
+    fn fast_test_fits(&self) -> bool {
+        (self.origin * self.inv_dir * FAST_FAR_SCALE).is_finite()
+    }
+
+    /// Octant index of the child orders: bit set for a positive direction.
+    #[inline(always)]
+    fn octant(&self) -> u32 {
+        !self.negative & 7
+    }
+
+    /// Rows of `Node8::planes` holding the near and far planes of `axis`.
+    #[inline(always)]
+    fn rows(&self, axis: usize) -> (usize, usize) {
+        let near = 2 * axis + ((self.negative >> axis) & 1) as usize;
+        (near, near ^ 1)
+    }
+}
+
+/// Work counted during one traversal.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Work {
+    pub nodes: u64,
+    pub items: u64,
+}
+
+/// Relative slack of the fast box test's far planes (see the module notes).
+const FAST_FAR_SCALE: f32 = 1.0 + 1.0 / (1 << 20) as f32;
+/// Absolute margins of the fast box test, relative to `|o / d|`.
+const FAST_NEAR_MARGIN: f32 = 1.0 / (1 << 22) as f32;
+const FAST_FAR_MARGIN: f32 = 1.0 / (1 << 21) as f32;
+
+/// Which box test a traversal runs.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum BoxTest {
+    Robust,
+    Fast,
+}
+
+/// The closest hit: shrinks `t_max` to its distance; true if anything was
+/// hit. `cpu` picks the AVX2 kernel.
+#[inline(always)]
+pub fn closest<L: Leaves>(
+    nodes: &[Node8],
+    ray: &BoxRay,
+    t_max: &mut f32,
+    leaves: &mut L,
+    cpu: Option<Avx2>,
+    test: BoxTest,
+    work: &mut Work,
+) -> bool {
+    if nodes.is_empty() {
+        return false;
+    }
+    #[cfg(target_arch = "x86_64")]
+    if let Some(cpu) = cpu {
+        // SAFETY: the token proves the CPU has AVX2 and FMA.
+        return unsafe {
+            if test == BoxTest::Fast && ray.fast_test_fits() {
+                avx2::closest::<false, L>(cpu, nodes, ray, t_max, leaves, work)
+            } else {
+                avx2::closest::<true, L>(cpu, nodes, ray, t_max, leaves, work)
+            }
+        };
+    }
+    let _ = (cpu, test);
+    scalar::closest(nodes, ray, t_max, leaves, work)
+}
+
+/// Whether anything lies within `t_max`.
+#[inline(always)]
+pub fn any<L: Leaves>(
+    nodes: &[Node8],
+    ray: &BoxRay,
+    t_max: f32,
+    leaves: &mut L,
+    cpu: Option<Avx2>,
+    test: BoxTest,
+    work: &mut Work,
+) -> bool {
+    if nodes.is_empty() {
+        return false;
+    }
+    #[cfg(target_arch = "x86_64")]
+    if let Some(cpu) = cpu {
+        // SAFETY: the token proves the CPU has AVX2 and FMA.
+        return unsafe {
+            if test == BoxTest::Fast && ray.fast_test_fits() {
+                avx2::any::<false, L>(cpu, nodes, ray, t_max, leaves, work)
+            } else {
+                avx2::any::<true, L>(cpu, nodes, ray, t_max, leaves, work)
+            }
+        };
+    }
+    let _ = (cpu, test);
+    scalar::any(nodes, ray, t_max, leaves, work)
+}
+
+/// The portable kernels: the robust box test lane by lane, children
+/// visited in the same octant order as the AVX2 kernels.
+mod scalar {
+    use super::*;
+
+    /// Entry distances and hit mask of the node's children.
+    #[inline(always)]
+    fn slab(node: &Node8, ray: &BoxRay, t_max: f32) -> ([f32; WIDTH], u32) {
+        let (o, inv) = (ray.origin, ray.inv_dir);
+        let p = &node.planes;
+        let mut near = [0.0f32; WIDTH];
+        let mut mask = 0;
+        let (ax, ay, az) = (ray.rows(0), ray.rows(1), ray.rows(2));
+        // `_mm256_max_ps(a, b)` returns b when either is NaN, as
+        // `if a > b { a } else { b }` does.
+        let max = |a: f32, b: f32| if a > b { a } else { b };
+        let min = |a: f32, b: f32| if a < b { a } else { b };
+        for i in 0..WIDTH {
+            let nx = (p[ax.0][i] - o.x) * inv.x;
+            let ny = (p[ay.0][i] - o.y) * inv.y;
+            let nz = (p[az.0][i] - o.z) * inv.z;
+            let fx = (p[ax.1][i] - o.x) * inv.x;
+            let fy = (p[ay.1][i] - o.y) * inv.y;
+            let fz = (p[az.1][i] - o.z) * inv.z;
+            let t0 = max(max(nx, ny), max(nz, ray.t_min));
+            let t1 = min(min(min(fx, fy), fz) * BOX_FAR_SCALE, t_max);
+            near[i] = t0;
+            if t0 <= t1 {
+                mask |= 1 << i;
+            }
+        }
+        (near, mask)
+    }
+
+    /// Visits the hit children of `node`: returns the nearest in octant
+    /// order and pushes the others, farthest first.
+    #[inline(always)]
+    fn push_children(
+        node: &Node8,
+        octant: u32,
+        near: &[f32; WIDTH],
+        mask: u32,
+        stack: &mut Vec<(ChildRef, f32)>,
+    ) -> ChildRef {
+        let mut nearest = None;
+        for place in 0..WIDTH {
+            let c = node.ordered(octant, place);
+            if mask & (1 << c) != 0 {
+                if let Some(previous) = nearest.replace(c) {
+                    stack.push((node.child[previous], near[previous]));
+                }
+            }
+        }
+        node.child[nearest.expect("a child was hit")]
+    }
+
+    pub fn closest<L: Leaves>(
+        nodes: &[Node8],
+        ray: &BoxRay,
+        t_max: &mut f32,
+        leaves: &mut L,
+        work: &mut Work,
+    ) -> bool {
+        let octant = ray.octant();
+        let mut stack: Vec<(ChildRef, f32)> = Vec::with_capacity(64);
+        let mut current: ChildRef = 0;
+        let mut hit = false;
+        loop {
+            if !is_leaf(current) {
+                let node = &nodes[current as usize];
+                work.nodes += 1;
+                let (near, mask) = slab(node, ray, *t_max);
+                if mask != 0 {
+                    current = push_children(node, octant, &near, mask, &mut stack);
+                    continue;
+                }
+            } else {
+                let count = leaf_count(current);
+                work.items += count as u64;
+                if let Some(t) = leaves.nearest(leaf_first(current), count, *t_max) {
+                    *t_max = t;
+                    hit = true;
+                }
+            }
+            loop {
+                let Some((next, near)) = stack.pop() else {
+                    return hit;
+                };
+                if near <= *t_max {
+                    current = next;
+                    break;
+                }
+            }
+        }
+    }
+
+    pub fn any<L: Leaves>(
+        nodes: &[Node8],
+        ray: &BoxRay,
+        t_max: f32,
+        leaves: &mut L,
+        work: &mut Work,
+    ) -> bool {
+        let octant = ray.octant();
+        let mut stack: Vec<(ChildRef, f32)> = Vec::with_capacity(64);
+        let mut current: ChildRef = 0;
+        loop {
+            if !is_leaf(current) {
+                let node = &nodes[current as usize];
+                work.nodes += 1;
+                let (near, mask) = slab(node, ray, t_max);
+                if mask != 0 {
+                    current = push_children(node, octant, &near, mask, &mut stack);
+                    continue;
+                }
+            } else {
+                let count = leaf_count(current);
+                work.items += count as u64;
+                if leaves.any(leaf_first(current), count, t_max) {
+                    return true;
+                }
+            }
+            match stack.pop() {
+                Some((next, _)) => current = next,
+                None => return false,
+            }
+        }
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+mod avx2 {
+    use std::arch::x86_64::*;
+
+    use super::*;
+
+    /// The per-ray constants of the 8-wide slab test. Robust form: near
+    /// and far planes `(plane - a) * near_r`, `(plane - a) * far_r` with
+    /// `a` the origin; fast form: `plane * near_r - near_c` and
+    /// `plane * far_r - far_c`.
+    struct Lanes {
+        near_r: [__m256; 3],
+        near_c: [__m256; 3],
+        far_r: [__m256; 3],
+        far_c: [__m256; 3],
+        t_min: __m256,
+        rows: [(usize, usize); 3],
+        octant: u32,
+        /// Shift that selects the octant's 3-bit field of `Node8::order`.
+        shift: __m128i,
+    }
+
+    #[target_feature(enable = "avx2,fma")]
+    #[inline]
+    fn lanes<const ROBUST: bool>(ray: &BoxRay) -> Lanes {
+        let o = ray.origin.to_array();
+        let inv = ray.inv_dir.to_array();
+        let splat = |v: [f32; 3]| v.map(|x| _mm256_set1_ps(x));
+        let (near_c, far_r, far_c) = if ROBUST {
+            (o, inv, o)
+        } else {
+            let c = [o[0] * inv[0], o[1] * inv[1], o[2] * inv[2]];
+            (
+                c.map(|c| c + c.abs() * FAST_NEAR_MARGIN),
+                inv.map(|r| r * FAST_FAR_SCALE),
+                c.map(|c| c * FAST_FAR_SCALE - c.abs() * FAST_FAR_MARGIN),
+            )
+        };
+        Lanes {
+            near_r: splat(inv),
+            near_c: splat(near_c),
+            far_r: splat(far_r),
+            far_c: splat(far_c),
+            t_min: _mm256_set1_ps(ray.t_min),
+            rows: [ray.rows(0), ray.rows(1), ray.rows(2)],
+            octant: ray.octant(),
+            shift: _mm_cvtsi32_si128(3 * ray.octant() as i32),
+        }
+    }
+
+    /// The 8-wide slab test: entry distances and the hit lanes.
+    #[target_feature(enable = "avx2,fma")]
+    #[inline]
+    unsafe fn slab<const ROBUST: bool>(node: &Node8, l: &Lanes, t_max: __m256) -> (__m256, __m256) {
+        let plane = |row: usize| _mm256_load_ps(node.planes[row].as_ptr());
+        let near_t = |axis: usize| {
+            let p = plane(l.rows[axis].0);
+            if ROBUST {
+                _mm256_mul_ps(_mm256_sub_ps(p, l.near_c[axis]), l.near_r[axis])
+            } else {
+                _mm256_fmsub_ps(p, l.near_r[axis], l.near_c[axis])
+            }
+        };
+        let far_t = |axis: usize| {
+            let p = plane(l.rows[axis].1);
+            if ROBUST {
+                _mm256_mul_ps(_mm256_sub_ps(p, l.far_c[axis]), l.far_r[axis])
+            } else {
+                _mm256_fmsub_ps(p, l.far_r[axis], l.far_c[axis])
+            }
+        };
+        let near = _mm256_max_ps(
+            _mm256_max_ps(near_t(0), near_t(1)),
+            _mm256_max_ps(near_t(2), l.t_min),
+        );
+        let far = _mm256_min_ps(_mm256_min_ps(far_t(0), far_t(1)), far_t(2));
+        let far = if ROBUST {
+            _mm256_mul_ps(far, _mm256_set1_ps(BOX_FAR_SCALE))
+        } else {
+            far
+        };
+        let far = _mm256_min_ps(far, t_max);
+        (near, _mm256_cmp_ps::<_CMP_LE_OQ>(near, far))
+    }
+
+    /// Hit children in the octant's order: the nearest is returned, the
+    /// others (and their distances, when `dists` is given) written to the
+    /// stack at `*top`, which advances past them.
+    #[target_feature(enable = "avx2,fma")]
+    #[inline]
+    unsafe fn push(
+        node: &Node8,
+        l: &Lanes,
+        near: __m256,
+        hit: __m256,
+        refs: *mut ChildRef,
+        dists: Option<*mut f32>,
+        top: &mut usize,
+    ) -> ChildRef {
+        let order = _mm256_srl_epi32(_mm256_load_si256(node.order.as_ptr().cast()), l.shift);
+        let sorted = _mm256_movemask_ps(_mm256_permutevar8x32_ps(hit, order)) as usize;
+        let children =
+            _mm256_permutevar8x32_epi32(_mm256_load_si256(node.child.as_ptr().cast()), order);
+        let nearest = 31 - (sorted as u32).leading_zeros();
+        let pack = _mm256_loadu_si256(COMPRESS[sorted].as_ptr().cast());
+        _mm256_storeu_si256(
+            refs.add(*top).cast(),
+            _mm256_permutevar8x32_epi32(children, pack),
+        );
+        if let Some(dists) = dists {
+            let d = _mm256_permutevar8x32_ps(near, order);
+            _mm256_storeu_ps(dists.add(*top), _mm256_permutevar8x32_ps(d, pack));
+        }
+        *top += sorted.count_ones() as usize - 1;
+        node.child[node.ordered(l.octant, nearest as usize)]
+    }
+
+    /// # Safety
+    /// Needs AVX2 and FMA (the token proves it); `nodes` is a tree built
+    /// by `build.rs` (node 0 the root, depth at most [`MAX_DEPTH`]).
+    #[target_feature(enable = "avx2,fma")]
+    pub unsafe fn closest<const ROBUST: bool, L: Leaves>(
+        _cpu: Avx2,
+        nodes: &[Node8],
+        ray: &BoxRay,
+        t_max: &mut f32,
+        leaves: &mut L,
+        work: &mut Work,
+    ) -> bool {
+        let l = lanes::<ROBUST>(ray);
+        let mut refs = [MaybeUninit::<ChildRef>::uninit(); STACK];
+        let mut dists = [MaybeUninit::<f32>::uninit(); STACK];
+        let (refs, dists) = (
+            refs.as_mut_ptr().cast::<ChildRef>(),
+            dists.as_mut_ptr().cast::<f32>(),
+        );
+        let mut top = 0usize;
+        let mut far = _mm256_set1_ps(*t_max);
+        let mut current: ChildRef = 0;
+        let mut hit = false;
+        loop {
+            if !is_leaf(current) {
+                // SAFETY: inner references index `nodes` (the builder's
+                // invariant).
+                let node = nodes.get_unchecked(current as usize);
+                work.nodes += 1;
+                let (near, hits) = slab::<ROBUST>(node, &l, far);
+                let mask = _mm256_movemask_ps(hits) as u32;
+                if mask != 0 {
+                    current = if mask & (mask - 1) == 0 {
+                        node.child[mask.trailing_zeros() as usize]
+                    } else {
+                        // SAFETY: `top` stays below STACK - WIDTH: every
+                        // level leaves at most seven entries and the depth
+                        // is bounded by MAX_DEPTH.
+                        push(node, &l, near, hits, refs, Some(dists), &mut top)
+                    };
+                    continue;
+                }
+            } else {
+                let count = leaf_count(current);
+                work.items += count as u64;
+                if let Some(t) = leaves.nearest(leaf_first(current), count, *t_max) {
+                    *t_max = t;
+                    far = _mm256_set1_ps(t);
+                    hit = true;
+                }
+            }
+            loop {
+                if top == 0 {
+                    return hit;
+                }
+                top -= 1;
+                // SAFETY: entries below `top` were written by `push`.
+                if *dists.add(top) <= *t_max {
+                    current = *refs.add(top);
+                    break;
+                }
+            }
+        }
+    }
+
+    /// # Safety
+    /// As [`closest`].
+    #[target_feature(enable = "avx2,fma")]
+    pub unsafe fn any<const ROBUST: bool, L: Leaves>(
+        _cpu: Avx2,
+        nodes: &[Node8],
+        ray: &BoxRay,
+        t_max: f32,
+        leaves: &mut L,
+        work: &mut Work,
+    ) -> bool {
+        let l = lanes::<ROBUST>(ray);
+        let mut refs = [MaybeUninit::<ChildRef>::uninit(); STACK];
+        let refs = refs.as_mut_ptr().cast::<ChildRef>();
+        let mut top = 0usize;
+        let far = _mm256_set1_ps(t_max);
+        let mut current: ChildRef = 0;
+        loop {
+            if !is_leaf(current) {
+                // SAFETY: as in `closest`.
+                let node = nodes.get_unchecked(current as usize);
+                work.nodes += 1;
+                let (near, hits) = slab::<ROBUST>(node, &l, far);
+                let mask = _mm256_movemask_ps(hits) as u32;
+                if mask != 0 {
+                    current = if mask & (mask - 1) == 0 {
+                        node.child[mask.trailing_zeros() as usize]
+                    } else {
+                        push(node, &l, near, hits, refs, None, &mut top)
+                    };
+                    continue;
+                }
+            } else {
+                let count = leaf_count(current);
+                work.items += count as u64;
+                if leaves.any(leaf_first(current), count, t_max) {
+                    return true;
+                }
+            }
+            if top == 0 {
+                return false;
+            }
+            top -= 1;
+            // SAFETY: entries below `top` were written by `push`.
+            current = *refs.add(top);
+        }
+    }
+}
