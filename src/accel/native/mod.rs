@@ -410,6 +410,11 @@ impl Leaves for BlockLeaves<'_> {
     }
 
     #[inline(always)]
+    fn address(&self, first: u32) -> *const u8 {
+        self.blocks.as_ptr().wrapping_add(first as usize).cast()
+    }
+
+    #[inline(always)]
     fn any(&mut self, first: u32, count: u32, t_max: f32) -> bool {
         (first..first + count).any(|b| {
             self.blocks[b as usize]
@@ -440,6 +445,11 @@ impl Leaves for WatertightLeaves<'_> {
             }
         }
         found
+    }
+
+    #[inline(always)]
+    fn address(&self, first: u32) -> *const u8 {
+        self.corners.as_ptr().wrapping_add(first as usize).cast()
     }
 
     #[inline(always)]
@@ -478,6 +488,11 @@ impl Leaves for SphereLeaves<'_> {
             }
         }
         found
+    }
+
+    #[inline(always)]
+    fn address(&self, first: u32) -> *const u8 {
+        self.items.as_ptr().wrapping_add(first as usize).cast()
     }
 
     #[inline(always)]

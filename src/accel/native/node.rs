@@ -63,6 +63,19 @@ impl Node8 {
     /// A node over up to eight children with their boxes.
     pub fn new(children: &[(ChildRef, Bounds)]) -> Node8 {
         debug_assert!(!children.is_empty() && children.len() <= WIDTH);
+        // Slots by decreasing surface area: any-hit traversal enters the
+        // highest hit slot first, i.e. the smallest box, which is the
+        // cheapest to resolve and, being tight around its triangles, the
+        // likeliest to hold an occluder (measured against largest-first and
+        // the split order: faster on every shared mesh, see docs/design.md).
+        let area = |b: &Bounds| {
+            let d = b.extent();
+            d.x * d.y + d.y * d.z + d.z * d.x
+        };
+        let mut sorted = [(EMPTY, Bounds::EMPTY); WIDTH];
+        sorted[..children.len()].copy_from_slice(children);
+        sorted[..children.len()].sort_by(|a, b| area(&b.1).total_cmp(&area(&a.1)));
+        let children = &sorted[..children.len()];
         let mut node = Node8 {
             planes: [
                 [f32::INFINITY; WIDTH],
@@ -197,13 +210,14 @@ mod tests {
             })
             .collect();
         let node = Node8::new(&boxes);
+        let refs = |octant: u32| -> Vec<ChildRef> {
+            (5..8)
+                .map(|p| node.child[node.ordered(octant, p)])
+                .collect()
+        };
         // Octant with +x: child 0 (smallest x) is met first, so last.
-        let plus_x = 0b111;
-        let order: Vec<usize> = (5..8).map(|p| node.ordered(plus_x, p)).collect();
-        assert_eq!(order, vec![2, 1, 0]);
-        let minus_x = 0b110;
-        let order: Vec<usize> = (5..8).map(|p| node.ordered(minus_x, p)).collect();
-        assert_eq!(order, vec![0, 1, 2]);
+        assert_eq!(refs(0b111), vec![2, 1, 0]);
+        assert_eq!(refs(0b110), vec![0, 1, 2]);
     }
 
     #[test]

@@ -5,11 +5,15 @@
 //! Per ray, once: the reciprocal direction, the octant (which picks each
 //! axis's near and far plane, so the slab test needs no min/max per axis),
 //! and the octant's child order. Per node: one 8-wide slab test; one hit
-//! child is descended into directly; several are permuted into the octant's
-//! front-to-back order, the nearest is descended into and the others are
-//! pushed in one store (a compress shuffle from [`COMPRESS`]) with their
-//! entry distances. Closest-hit pops skip entries farther than the hit
-//! found so far; any-hit keeps no distances and stops at the first hit.
+//! child is descended into directly. With several, closest hit permutes
+//! them into the octant's front-to-back order, descends into the nearest
+//! and pushes the others in one store (a compress shuffle from
+//! [`COMPRESS`]) with their entry distances; its pops skip entries farther
+//! than the hit found so far. Any hit needs no order to be correct and pays
+//! for none: it descends into the smallest hit child (slots are sorted by
+//! size) and pushes the rest as they are, keeps no distances, and stops at
+//! the first hit. While a leaf is tested, the next stack entry is
+//! prefetched (nodes span four cache lines).
 //!
 //! Box tests, both conservative (they never cull a box the exact test
 //! would enter):
@@ -49,6 +53,8 @@ pub trait Leaves {
     fn nearest(&mut self, first: u32, count: u32, t_max: f32) -> Option<f32>;
     /// Whether any of the items is hit within `t_max`.
     fn any(&mut self, first: u32, count: u32, t_max: f32) -> bool;
+    /// Where item `first` lives, for prefetching.
+    fn address(&self, first: u32) -> *const u8;
 }
 
 /// A ray prepared for the slab tests.
@@ -288,16 +294,22 @@ mod scalar {
         leaves: &mut L,
         work: &mut Work,
     ) -> bool {
-        let octant = ray.octant();
-        let mut stack: Vec<(ChildRef, f32)> = Vec::with_capacity(64);
+        let mut stack: Vec<ChildRef> = Vec::with_capacity(64);
         let mut current: ChildRef = 0;
         loop {
             if !is_leaf(current) {
                 let node = &nodes[current as usize];
                 work.nodes += 1;
-                let (near, mask) = slab(node, ray, t_max);
+                let (_, mask) = slab(node, ray, t_max);
                 if mask != 0 {
-                    current = push_children(node, octant, &near, mask, &mut stack);
+                    // Slot order (decreasing size), the last hit slot first.
+                    let last = 31 - mask.leading_zeros() as usize;
+                    stack.extend(
+                        (0..last)
+                            .filter(|i| mask & (1 << i) != 0)
+                            .map(|i| node.child[i]),
+                    );
+                    current = node.child[last];
                     continue;
                 }
             } else {
@@ -308,7 +320,7 @@ mod scalar {
                 }
             }
             match stack.pop() {
-                Some((next, _)) => current = next,
+                Some(next) => current = next,
                 None => return false,
             }
         }
@@ -400,8 +412,23 @@ mod avx2 {
         (near, _mm256_cmp_ps::<_CMP_LE_OQ>(near, far))
     }
 
-    /// Hit children in the octant's order: the nearest is returned, the
-    /// others (and their distances, when `dists` is given) written to the
+    /// Asks for the four cache lines of `r`'s node or first leaf item
+    /// (prefetches never fault, whatever the address).
+    #[target_feature(enable = "avx2,fma")]
+    #[inline]
+    fn prefetch<L: Leaves>(nodes: &[Node8], leaves: &L, r: ChildRef) {
+        let p = if is_leaf(r) {
+            leaves.address(leaf_first(r))
+        } else {
+            nodes.as_ptr().wrapping_add(r as usize).cast::<u8>()
+        };
+        for line in 0..4 {
+            _mm_prefetch::<_MM_HINT_T0>(p.wrapping_add(64 * line).cast());
+        }
+    }
+
+    /// Closest-hit's push: hit children in the octant's order; the nearest
+    /// is returned, the others and their entry distances written to the
     /// stack at `*top`, which advances past them.
     #[target_feature(enable = "avx2,fma")]
     #[inline]
@@ -411,7 +438,7 @@ mod avx2 {
         near: __m256,
         hit: __m256,
         refs: *mut ChildRef,
-        dists: Option<*mut f32>,
+        dists: *mut f32,
         top: &mut usize,
     ) -> ChildRef {
         let order = _mm256_srl_epi32(_mm256_load_si256(node.order.as_ptr().cast()), l.shift);
@@ -424,12 +451,26 @@ mod avx2 {
             refs.add(*top).cast(),
             _mm256_permutevar8x32_epi32(children, pack),
         );
-        if let Some(dists) = dists {
-            let d = _mm256_permutevar8x32_ps(near, order);
-            _mm256_storeu_ps(dists.add(*top), _mm256_permutevar8x32_ps(d, pack));
-        }
+        let d = _mm256_permutevar8x32_ps(near, order);
+        _mm256_storeu_ps(dists.add(*top), _mm256_permutevar8x32_ps(d, pack));
         *top += sorted.count_ones() as usize - 1;
         node.child[node.ordered(l.octant, nearest as usize)]
+    }
+
+    /// Any-hit's push: no order to compute, the hit children in slot
+    /// order (decreasing size); returns the last, the smallest, and writes
+    /// the others to the stack at `*top`.
+    #[target_feature(enable = "avx2,fma")]
+    #[inline]
+    unsafe fn push_any(node: &Node8, mask: u32, refs: *mut ChildRef, top: &mut usize) -> ChildRef {
+        let pack = _mm256_loadu_si256(COMPRESS[mask as usize].as_ptr().cast());
+        let children = _mm256_load_si256(node.child.as_ptr().cast());
+        _mm256_storeu_si256(
+            refs.add(*top).cast(),
+            _mm256_permutevar8x32_epi32(children, pack),
+        );
+        *top += mask.count_ones() as usize - 1;
+        node.child[31 - mask.leading_zeros() as usize]
     }
 
     /// # Safety
@@ -470,11 +511,16 @@ mod avx2 {
                         // SAFETY: `top` stays below STACK - WIDTH: every
                         // level leaves at most seven entries and the depth
                         // is bounded by MAX_DEPTH.
-                        push(node, &l, near, hits, refs, Some(dists), &mut top)
+                        push(node, &l, near, hits, refs, dists, &mut top)
                     };
                     continue;
                 }
             } else {
+                if top > 0 {
+                    // The next entry is fetched while the leaf is tested.
+                    // SAFETY: entries below `top` were written by `push`.
+                    prefetch(nodes, leaves, *refs.add(top - 1));
+                }
                 let count = leaf_count(current);
                 work.items += count as u64;
                 if let Some(t) = leaves.nearest(leaf_first(current), count, *t_max) {
@@ -519,17 +565,22 @@ mod avx2 {
                 // SAFETY: as in `closest`.
                 let node = nodes.get_unchecked(current as usize);
                 work.nodes += 1;
-                let (near, hits) = slab::<ROBUST>(node, &l, far);
+                let (_, hits) = slab::<ROBUST>(node, &l, far);
                 let mask = _mm256_movemask_ps(hits) as u32;
                 if mask != 0 {
                     current = if mask & (mask - 1) == 0 {
                         node.child[mask.trailing_zeros() as usize]
                     } else {
-                        push(node, &l, near, hits, refs, None, &mut top)
+                        push_any(node, mask, refs, &mut top)
                     };
                     continue;
                 }
             } else {
+                if top > 0 {
+                    // The next entry is fetched while the leaf is tested.
+                    // SAFETY: entries below `top` were written by `push`.
+                    prefetch(nodes, leaves, *refs.add(top - 1));
+                }
                 let count = leaf_count(current);
                 work.items += count as u64;
                 if leaves.any(leaf_first(current), count, t_max) {
