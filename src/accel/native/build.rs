@@ -36,9 +36,14 @@ pub const TRAVERSAL_COST: f32 = 1.0;
 /// leaves cost one test per started block, so the builder fills leaves
 /// rather than splitting them further.
 pub const LEAF_BLOCK: usize = 4;
+/// Bins per axis (fewer for small ranges, see [`bins_for`]).
 const BINS: usize = 16;
 /// Below this many primitives a subtree is built on the calling thread.
 const PARALLEL_THRESHOLD: usize = 4096;
+
+// `find_split` relies on a split of one block never costing less than the
+// block itself.
+const _: () = assert!(TRAVERSAL_COST >= 1.0);
 
 /// Cost of a leaf of `n` primitives, in block tests.
 pub fn leaf_cost(n: usize) -> f32 {
@@ -124,12 +129,14 @@ struct PrimRef {
 /// How a range is split.
 #[derive(Clone, Copy, Debug)]
 enum Split {
-    /// Bins `< boundary` of `axis` go left.
+    /// Primitives whose bin on `axis` (as [`bin_of`] computes it with this
+    /// `lo`, `scale` and `last`) is below `boundary` go left.
     Binned {
         axis: usize,
         boundary: usize,
         lo: f32,
         scale: f32,
+        last: usize,
     },
     /// Object median along `axis`.
     Median { axis: usize },
@@ -287,10 +294,12 @@ fn subtree(
         depth,
         ..Stats::default()
     };
-    let mut children: Vec<Record> = Vec::with_capacity(WIDTH);
-    children.push(rec);
-    while children.len() < WIDTH {
-        let Some(i) = (0..children.len())
+    // The children, in the order of their ranges (each split replaces a
+    // child by its two sides, left first).
+    let mut children = [rec; WIDTH];
+    let mut count = 1;
+    while count < WIDTH {
+        let Some(i) = (0..count)
             .filter(|&i| children[i].split.is_some())
             .max_by(|&a, &b| {
                 children[a]
@@ -301,23 +310,26 @@ fn subtree(
         else {
             break;
         };
-        let c = children.remove(i);
+        let c = children[i];
         stats.sah += c.geom.half_area() as f64 * TRAVERSAL_COST as f64;
         let (mut l, mut r) = apply_split(&mut refs[local(&c)], &c);
         l.split = find_split(&refs[local(&l)], &l, settings);
         r.split = find_split(&refs[local(&r)], &r, settings);
-        children.insert(i, r);
-        children.insert(i, l);
+        children.copy_within(i + 1..count, i + 2);
+        children[i] = l;
+        children[i + 1] = r;
+        count += 1;
     }
+    let children = &children[..count];
     let me = out.len();
     out.push(Node8::new(&[(EMPTY, Bounds::EMPTY)]));
-    let mut slots: Vec<(ChildRef, Bounds)> = Vec::with_capacity(children.len());
-    if rec.len() >= PARALLEL_THRESHOLD {
+    let mut slots = [(EMPTY, Bounds::EMPTY); WIDTH];
+    if rec.len() >= PARALLEL_THRESHOLD && rayon::current_num_threads() > 1 {
         // Disjoint slices of the references, one per child, in order.
         let mut parts = Vec::with_capacity(children.len());
         let mut rest = &mut refs[..];
         let mut offset = base;
-        for c in &children {
+        for c in children {
             let (head, tail) = rest.split_at_mut(c.end - offset);
             parts.push((head, offset, *c));
             rest = tail;
@@ -331,7 +343,7 @@ fn subtree(
                 (r, s, nodes)
             })
             .collect();
-        for ((r, s, nodes), c) in built.into_iter().zip(&children) {
+        for (slot, ((r, s, nodes), c)) in built.into_iter().zip(children).enumerate() {
             let offset = out.len() as u32;
             let relocate = |r: ChildRef| {
                 if r == EMPTY || is_leaf(r) {
@@ -344,17 +356,17 @@ fn subtree(
                 n.child = n.child.map(relocate);
                 n
             }));
-            slots.push((relocate(r), c.geom.bounds()));
+            slots[slot] = (relocate(r), c.geom.bounds());
             stats.add_child(&s);
         }
     } else {
-        for c in &children {
+        for (slot, c) in children.iter().enumerate() {
             let (r, s) = child(&mut refs[local(c)], c.start, *c, depth + 1, settings, out);
-            slots.push((r, c.geom.bounds()));
+            slots[slot] = (r, c.geom.bounds());
             stats.add_child(&s);
         }
     }
-    out[me] = Node8::new(&slots);
+    out[me] = Node8::new(&slots[..count]);
     (me as ChildRef, stats)
 }
 
@@ -392,6 +404,10 @@ fn find_split(refs: &[PrimRef], rec: &Record, settings: &Settings) -> Option<Spl
     }
     match settings.method {
         BuildMethod::Median => (n > settings.max_leaf).then_some(Split::Median { axis: widest }),
+        // One block holds the whole range and no split can cost less: the
+        // inner node alone costs as much as the leaf (TRAVERSAL_COST = one
+        // block test). Near the leaves this skips most binning passes.
+        BuildMethod::Sah if n <= LEAF_BLOCK && n <= settings.max_leaf => None,
         BuildMethod::Sah => {
             let best = binned_sah(refs, rec);
             let leaf = rec.geom.half_area() * leaf_cost(n);
@@ -406,22 +422,59 @@ fn find_split(refs: &[PrimRef], rec: &Record, settings: &Settings) -> Option<Spl
     }
 }
 
+/// Bins for a range of `n` primitives: small ranges near the leaves are
+/// split as well with fewer, and clearing and sweeping 3 x 16 bins is most
+/// of their cost.
+fn bins_for(n: usize) -> usize {
+    if n <= SMALL_RANGE {
+        SMALL_BINS
+    } else {
+        BINS
+    }
+}
+const SMALL_RANGE: usize = 16;
+const SMALL_BINS: usize = 16;
+
+/// `2^23`: adding it to a float in `[0, 2^22)` leaves the nearest integer
+/// in the low mantissa bits.
+const ROUNDING: f32 = 8_388_608.0;
+
+/// The bin of a scaled centroid coordinate `x = (c - lo) * scale`: its
+/// floor, computed as the nearest integer to `x - 1/2` (one addition of
+/// [`ROUNDING`] instead of a saturating conversion; only exact bin
+/// boundaries may round down). Binning ([`bins_of`], all axes at once) and
+/// partitioning (one axis) do the same operations per lane, so they agree.
+#[inline(always)]
+fn bin_of(c: f32, lo: f32, scale: f32, last: usize) -> usize {
+    let x = ((c - lo) * scale - 0.5).max(0.0) + ROUNDING;
+    ((x.to_bits() - ROUNDING.to_bits()) as usize).min(last)
+}
+
+/// [`bin_of`] on all three axes.
+#[inline(always)]
+fn bins_of(centroid2: Vec3A, lo: Vec3A, scale: Vec3A, last: usize) -> [usize; 3] {
+    let f =
+        ((centroid2 - lo) * scale - Vec3A::splat(0.5)).max(Vec3A::ZERO) + Vec3A::splat(ROUNDING);
+    f.to_array()
+        .map(|x| ((x.to_bits() - ROUNDING.to_bits()) as usize).min(last))
+}
+
 /// The cheapest binned split of `rec` over all axes: unnormalized cost
 /// (half areas times leaf costs of both sides) and the split.
 fn binned_sah(refs: &[PrimRef], rec: &Record) -> Option<(f32, Split)> {
+    let bins = bins_for(refs.len());
     let lo = rec.cent.lo;
     let extent = rec.cent.hi - rec.cent.lo;
-    // Just under BINS so the largest centroid lands in the last bin.
-    let k = BINS as f32 * (1.0 - 1e-6);
+    // Just under `bins`, so the largest centroid lands in the last bin.
+    let k = bins as f32 * (1.0 - 1e-6);
     let scale = Vec3A::select(extent.cmpgt(Vec3A::ZERO), k / extent, Vec3A::ZERO);
     let mut boxes = [[Aabb::EMPTY; BINS]; 3];
     let mut counts = [[0u32; BINS]; 3];
     for r in refs {
-        let b = ((r.aabb.centroid2() - lo) * scale).to_array();
+        let b = bins_of(r.aabb.centroid2(), lo, scale, bins - 1);
         for axis in 0..3 {
-            let i = (b[axis] as usize).min(BINS - 1);
-            boxes[axis][i].grow(&r.aabb);
-            counts[axis][i] += 1;
+            boxes[axis][b[axis]].grow(&r.aabb);
+            counts[axis][b[axis]] += 1;
         }
     }
     let mut best: Option<(f32, Split)> = None;
@@ -429,37 +482,39 @@ fn binned_sah(refs: &[PrimRef], rec: &Record) -> Option<(f32, Split)> {
         if extent[axis] <= 0.0 {
             continue;
         }
-        let (bins, count) = (&boxes[axis], &counts[axis]);
-        // Right sweep: cost of the right side of every boundary.
-        let mut right_cost = [0.0f32; BINS];
-        let mut right_count = [0usize; BINS];
-        let (mut acc, mut n) = (Aabb::EMPTY, 0usize);
-        for i in (1..BINS).rev() {
-            acc.grow(&bins[i]);
-            n += count[i] as usize;
-            right_cost[i] = if n > 0 {
-                acc.half_area() * leaf_cost(n)
-            } else {
-                0.0
-            };
-            right_count[i] = n;
+        // Only boundaries after non-empty bins: every boundary between the
+        // same two non-empty bins gives the same partition, and the first
+        // of them is the one a full sweep would keep.
+        let mut used = [0usize; BINS];
+        let mut k = 0;
+        for (i, &c) in counts[axis][..bins].iter().enumerate() {
+            used[k] = i;
+            k += (c > 0) as usize;
         }
-        let (mut acc, mut n) = (Aabb::EMPTY, 0usize);
-        for i in 0..BINS - 1 {
-            acc.grow(&bins[i]);
-            n += count[i] as usize;
-            if n == 0 || right_count[i + 1] == 0 {
-                continue;
-            }
-            let cost = acc.half_area() * leaf_cost(n) + right_cost[i + 1];
+        let used = &used[..k];
+        let (boxes, count) = (&boxes[axis], &counts[axis]);
+        // right_cost[j]: cost of the bins from used[j] on.
+        let mut right_cost = [0.0f32; BINS];
+        let (mut acc, mut n) = (Aabb::EMPTY, 0u32);
+        for j in (1..used.len()).rev() {
+            acc.grow(&boxes[used[j]]);
+            n += count[used[j]];
+            right_cost[j] = acc.half_area() * leaf_cost(n as usize);
+        }
+        let (mut acc, mut n) = (Aabb::EMPTY, 0u32);
+        for j in 0..used.len().saturating_sub(1) {
+            acc.grow(&boxes[used[j]]);
+            n += count[used[j]];
+            let cost = acc.half_area() * leaf_cost(n as usize) + right_cost[j + 1];
             if best.is_none_or(|(c, _)| cost < c) {
                 best = Some((
                     cost,
                     Split::Binned {
                         axis,
-                        boundary: i + 1,
+                        boundary: used[j] + 1,
                         lo: lo[axis],
                         scale: scale[axis],
+                        last: bins - 1,
                     },
                 ));
             }
@@ -472,27 +527,47 @@ fn binned_sah(refs: &[PrimRef], rec: &Record) -> Option<(f32, Split)> {
 /// two sides with their bounds (splits not yet chosen).
 fn apply_split(refs: &mut [PrimRef], rec: &Record) -> (Record, Record) {
     let n = refs.len();
-    let mid = match rec.split {
-        Some(Split::Binned {
-            axis,
-            boundary,
-            lo,
-            scale,
-        }) => {
-            let left = |r: &PrimRef| {
-                ((((r.aabb.centroid2()[axis] - lo) * scale) as usize).min(BINS - 1)) < boundary
-            };
-            let (mut i, mut j) = (0, n);
-            while i < j {
-                if left(&refs[i]) {
-                    i += 1;
-                } else {
-                    j -= 1;
-                    refs.swap(i, j);
-                }
+    let side = |start: usize, end: usize, geom: Aabb, cent: Aabb| Record {
+        start,
+        end,
+        geom,
+        cent,
+        split: None,
+        binary_depth: rec.binary_depth + 1,
+    };
+    if let Some(Split::Binned {
+        axis,
+        boundary,
+        lo,
+        scale,
+        last,
+    }) = rec.split
+    {
+        // Hoare partition, growing each side's bounds as it classifies.
+        let (mut left, mut right) = ((Aabb::EMPTY, Aabb::EMPTY), (Aabb::EMPTY, Aabb::EMPTY));
+        let (mut i, mut j) = (0, n);
+        while i < j {
+            let r = refs[i].aabb;
+            let c = r.centroid2();
+            if bin_of(c[axis], lo, scale, last) < boundary {
+                left.0.grow(&r);
+                left.1.grow_point(c);
+                i += 1;
+            } else {
+                right.0.grow(&r);
+                right.1.grow_point(c);
+                j -= 1;
+                refs.swap(i, j);
             }
-            i
         }
+        if i > 0 && i < n {
+            return (
+                side(rec.start, rec.start + i, left.0, left.1),
+                side(rec.start + i, rec.end, right.0, right.1),
+            );
+        }
+    }
+    let mid = match rec.split {
         Some(Split::Median { axis }) => {
             let mid = n / 2;
             refs.select_nth_unstable_by(mid, |a, b| {
@@ -500,25 +575,14 @@ fn apply_split(refs: &mut [PrimRef], rec: &Record) -> (Record, Record) {
             });
             mid
         }
-        Some(Split::Half) | None => n / 2,
+        // Half, or a binned split that separated nothing (it always does;
+        // this keeps the ranges valid whatever happens).
+        _ => n / 2,
     };
-    // A binned split always separates (both sides have primitives), but
-    // keep the ranges valid whatever happens.
-    let mid = mid.clamp(1, n - 1);
-    let side = |part: &[PrimRef], start: usize| {
-        let (geom, cent) = bounds_of(part);
-        Record {
-            start,
-            end: start + part.len(),
-            geom,
-            cent,
-            split: None,
-            binary_depth: rec.binary_depth + 1,
-        }
-    };
+    let ((lg, lc), (rg, rc)) = (bounds_of(&refs[..mid]), bounds_of(&refs[mid..]));
     (
-        side(&refs[..mid], rec.start),
-        side(&refs[mid..], rec.start + mid),
+        side(rec.start, rec.start + mid, lg, lc),
+        side(rec.start + mid, rec.end, rg, rc),
     )
 }
 
