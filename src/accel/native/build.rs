@@ -36,7 +36,7 @@ pub const TRAVERSAL_COST: f32 = 1.0;
 /// leaves cost one test per started block, so the builder fills leaves
 /// rather than splitting them further.
 pub const LEAF_BLOCK: usize = 4;
-/// Bins per axis (fewer for small ranges, see [`bins_for`]).
+/// Bins per axis.
 const BINS: usize = 16;
 /// Below this many primitives a subtree is built on the calling thread.
 const PARALLEL_THRESHOLD: usize = 4096;
@@ -130,13 +130,12 @@ struct PrimRef {
 #[derive(Clone, Copy, Debug)]
 enum Split {
     /// Primitives whose bin on `axis` (as [`bin_of`] computes it with this
-    /// `lo`, `scale` and `last`) is below `boundary` go left.
+    /// `lo` and `scale`) is below `boundary` go left.
     Binned {
         axis: usize,
         boundary: usize,
         lo: f32,
         scale: f32,
-        last: usize,
     },
     /// Object median along `axis`.
     Median { axis: usize },
@@ -422,19 +421,6 @@ fn find_split(refs: &[PrimRef], rec: &Record, settings: &Settings) -> Option<Spl
     }
 }
 
-/// Bins for a range of `n` primitives: small ranges near the leaves are
-/// split as well with fewer, and clearing and sweeping 3 x 16 bins is most
-/// of their cost.
-fn bins_for(n: usize) -> usize {
-    if n <= SMALL_RANGE {
-        SMALL_BINS
-    } else {
-        BINS
-    }
-}
-const SMALL_RANGE: usize = 16;
-const SMALL_BINS: usize = 16;
-
 /// `2^23`: adding it to a float in `[0, 2^22)` leaves the nearest integer
 /// in the low mantissa bits.
 const ROUNDING: f32 = 8_388_608.0;
@@ -445,36 +431,60 @@ const ROUNDING: f32 = 8_388_608.0;
 /// boundaries may round down). Binning ([`bins_of`], all axes at once) and
 /// partitioning (one axis) do the same operations per lane, so they agree.
 #[inline(always)]
-fn bin_of(c: f32, lo: f32, scale: f32, last: usize) -> usize {
+fn bin_of(c: f32, lo: f32, scale: f32) -> usize {
     let x = ((c - lo) * scale - 0.5).max(0.0) + ROUNDING;
-    ((x.to_bits() - ROUNDING.to_bits()) as usize).min(last)
+    ((x.to_bits() - ROUNDING.to_bits()) as usize).min(BINS - 1)
 }
 
 /// [`bin_of`] on all three axes.
 #[inline(always)]
-fn bins_of(centroid2: Vec3A, lo: Vec3A, scale: Vec3A, last: usize) -> [usize; 3] {
+fn bins_of(centroid2: Vec3A, lo: Vec3A, scale: Vec3A) -> [usize; 3] {
     let f =
         ((centroid2 - lo) * scale - Vec3A::splat(0.5)).max(Vec3A::ZERO) + Vec3A::splat(ROUNDING);
     f.to_array()
-        .map(|x| ((x.to_bits() - ROUNDING.to_bits()) as usize).min(last))
+        .map(|x| ((x.to_bits() - ROUNDING.to_bits()) as usize).min(BINS - 1))
 }
 
 /// The cheapest binned split of `rec` over all axes: unnormalized cost
 /// (half areas times leaf costs of both sides) and the split.
 fn binned_sah(refs: &[PrimRef], rec: &Record) -> Option<(f32, Split)> {
-    let bins = bins_for(refs.len());
     let lo = rec.cent.lo;
     let extent = rec.cent.hi - rec.cent.lo;
     // Just under `bins`, so the largest centroid lands in the last bin.
-    let k = bins as f32 * (1.0 - 1e-6);
+    let k = BINS as f32 * (1.0 - 1e-6);
     let scale = Vec3A::select(extent.cmpgt(Vec3A::ZERO), k / extent, Vec3A::ZERO);
     let mut boxes = [[Aabb::EMPTY; BINS]; 3];
     let mut counts = [[0u32; BINS]; 3];
-    for r in refs {
-        let b = bins_of(r.aabb.centroid2(), lo, scale, bins - 1);
+    let bin = |boxes: &mut [[Aabb; BINS]; 3], counts: &mut [[u32; BINS]; 3], r: &PrimRef| {
+        let b = bins_of(r.aabb.centroid2(), lo, scale);
         for axis in 0..3 {
             boxes[axis][b[axis]].grow(&r.aabb);
             counts[axis][b[axis]] += 1;
+        }
+    };
+    if refs.len() < 2 * BINS {
+        for r in refs {
+            bin(&mut boxes, &mut counts, r);
+        }
+    } else {
+        // Neighbours in the mesh mostly share a bin, which would chain
+        // every update to the previous one through memory: odd primitives
+        // go to a second set of bins, merged afterwards (as Embree does).
+        let mut boxes2 = [[Aabb::EMPTY; BINS]; 3];
+        let mut counts2 = [[0u32; BINS]; 3];
+        let mut pairs = refs.chunks_exact(2);
+        for pair in &mut pairs {
+            bin(&mut boxes, &mut counts, &pair[0]);
+            bin(&mut boxes2, &mut counts2, &pair[1]);
+        }
+        for r in pairs.remainder() {
+            bin(&mut boxes, &mut counts, r);
+        }
+        for axis in 0..3 {
+            for i in 0..BINS {
+                boxes[axis][i].grow(&boxes2[axis][i]);
+                counts[axis][i] += counts2[axis][i];
+            }
         }
     }
     let mut best: Option<(f32, Split)> = None;
@@ -487,7 +497,7 @@ fn binned_sah(refs: &[PrimRef], rec: &Record) -> Option<(f32, Split)> {
         // of them is the one a full sweep would keep.
         let mut used = [0usize; BINS];
         let mut k = 0;
-        for (i, &c) in counts[axis][..bins].iter().enumerate() {
+        for (i, &c) in counts[axis].iter().enumerate() {
             used[k] = i;
             k += (c > 0) as usize;
         }
@@ -514,7 +524,6 @@ fn binned_sah(refs: &[PrimRef], rec: &Record) -> Option<(f32, Split)> {
                         boundary: used[j] + 1,
                         lo: lo[axis],
                         scale: scale[axis],
-                        last: bins - 1,
                     },
                 ));
             }
@@ -540,7 +549,6 @@ fn apply_split(refs: &mut [PrimRef], rec: &Record) -> (Record, Record) {
         boundary,
         lo,
         scale,
-        last,
     }) = rec.split
     {
         // Hoare partition, growing each side's bounds as it classifies.
@@ -549,7 +557,7 @@ fn apply_split(refs: &mut [PrimRef], rec: &Record) -> (Record, Record) {
         while i < j {
             let r = refs[i].aabb;
             let c = r.centroid2();
-            if bin_of(c[axis], lo, scale, last) < boundary {
+            if bin_of(c[axis], lo, scale) < boundary {
                 left.0.grow(&r);
                 left.1.grow_point(c);
                 i += 1;

@@ -143,15 +143,15 @@ impl NativeBvh {
                 for node in &mut triangles {
                     node.remap_leaves(|first, count| {
                         let block = blocks.len() as u32;
-                        for start in (first..first + count).step_by(4) {
-                            let lanes = (start + 4).min(first + count) - start;
-                            let mut tris = [([Vec3::ZERO; 3], 0u32); 4];
-                            for (lane, tri) in tris.iter_mut().enumerate().take(lanes as usize) {
-                                let prim = prim_order[(start + lane as u32) as usize];
-                                let [a, b, c] = mesh.corners(prim as usize);
-                                *tri = (triangle::MollerTrumbore::prepare(a, b, c), prim);
+                        let slots = &prim_order[first as usize..(first + count) as usize];
+                        for lanes in slots.chunks(4) {
+                            blocks.push(TriangleBlock4::EMPTY);
+                            let b = blocks.last_mut().expect("just pushed");
+                            for (lane, &prim) in lanes.iter().enumerate() {
+                                let [v0, v1, v2] = mesh.corners(prim as usize);
+                                let tri = triangle::MollerTrumbore::prepare(v0, v1, v2);
+                                b.set_lane(lane, &tri, prim);
                             }
-                            blocks.push(TriangleBlock4::pack(&tris[..lanes as usize]));
                         }
                         leaf(block, count.div_ceil(4))
                     });

@@ -215,21 +215,30 @@ pub struct TriangleBlock4 {
 pub type LaneHit = (usize, f32, f32, f32);
 
 impl TriangleBlock4 {
+    /// A block of four unused lanes.
+    pub const EMPTY: TriangleBlock4 = TriangleBlock4 {
+        v: [[[0.0f32; 4]; 3]; 3],
+        prims: [u32::MAX; 4],
+    };
+
     /// Packs up to four triangles given as `[v0, e1, e2]` with their ids.
     pub fn pack(tris: &[([Vec3; 3], u32)]) -> TriangleBlock4 {
-        let mut block = TriangleBlock4 {
-            v: [[[0.0f32; 4]; 3]; 3],
-            prims: [u32::MAX; 4],
-        };
+        let mut block = TriangleBlock4::EMPTY;
         for (lane, (tri, prim)) in tris.iter().take(4).enumerate() {
-            for (k, p) in tri.iter().enumerate() {
-                block.v[k][0][lane] = p.x;
-                block.v[k][1][lane] = p.y;
-                block.v[k][2][lane] = p.z;
-            }
-            block.prims[lane] = *prim;
+            block.set_lane(lane, tri, *prim);
         }
         block
+    }
+
+    /// Puts triangle `[v0, e1, e2]` with id `prim` in lane `lane`.
+    #[inline(always)]
+    pub fn set_lane(&mut self, lane: usize, tri: &[Vec3; 3], prim: u32) {
+        for (k, p) in tri.iter().enumerate() {
+            self.v[k][0][lane] = p.x;
+            self.v[k][1][lane] = p.y;
+            self.v[k][2][lane] = p.z;
+        }
+        self.prims[lane] = prim;
     }
 
     /// Lane `i` as `[v0, e1, e2]`.
