@@ -39,7 +39,7 @@ pub const LEAF_BLOCK: usize = 4;
 /// Bins per axis.
 const BINS: usize = 16;
 /// Below this many primitives a subtree is built on the calling thread.
-const PARALLEL_THRESHOLD: usize = 4096;
+const PARALLEL_THRESHOLD: usize = 1024;
 
 // `find_split` relies on a split of one block never costing less than the
 // block itself.
@@ -312,8 +312,18 @@ fn subtree(
         let c = children[i];
         stats.sah += c.geom.half_area() as f64 * TRAVERSAL_COST as f64;
         let (mut l, mut r) = apply_split(&mut refs[local(&c)], &c);
-        l.split = find_split(&refs[local(&l)], &l, settings);
-        r.split = find_split(&refs[local(&r)], &r, settings);
+        let (left, right) = (&refs[local(&l)], &refs[local(&r)]);
+        (l.split, r.split) = if c.len() >= PARALLEL_BINNING && rayon::current_num_threads() > 1 {
+            rayon::join(
+                || find_split(left, &l, settings),
+                || find_split(right, &r, settings),
+            )
+        } else {
+            (
+                find_split(left, &l, settings),
+                find_split(right, &r, settings),
+            )
+        };
         children.copy_within(i + 1..count, i + 2);
         children[i] = l;
         children[i + 1] = r;
@@ -445,6 +455,75 @@ fn bins_of(centroid2: Vec3A, lo: Vec3A, scale: Vec3A) -> [usize; 3] {
         .map(|x| ((x.to_bits() - ROUNDING.to_bits()) as usize).min(BINS - 1))
 }
 
+/// Bins of all three axes.
+#[derive(Clone, Copy)]
+struct BinSet {
+    boxes: [[Aabb; BINS]; 3],
+    counts: [[u32; BINS]; 3],
+}
+
+impl BinSet {
+    const CLEAR: BinSet = BinSet {
+        boxes: [[Aabb::EMPTY; BINS]; 3],
+        counts: [[0; BINS]; 3],
+    };
+
+    #[inline(always)]
+    fn add(&mut self, r: &PrimRef, lo: Vec3A, scale: Vec3A) {
+        let b = bins_of(r.aabb.centroid2(), lo, scale);
+        for axis in 0..3 {
+            self.boxes[axis][b[axis]].grow(&r.aabb);
+            self.counts[axis][b[axis]] += 1;
+        }
+    }
+
+    /// Both sets' primitives. Exact (minima, maxima and counts), so the
+    /// bins do not depend on how a range was divided.
+    fn merge(mut self, other: &BinSet) -> BinSet {
+        for axis in 0..3 {
+            for i in 0..BINS {
+                self.boxes[axis][i].grow(&other.boxes[axis][i]);
+                self.counts[axis][i] += other.counts[axis][i];
+            }
+        }
+        self
+    }
+}
+
+/// Ranges at least this large are binned in parallel chunks when the pool
+/// has several threads: the first levels would otherwise run on one.
+const PARALLEL_BINNING: usize = 4096;
+
+/// Bins `refs` with the grid `lo`, `scale`.
+fn bin_range(refs: &[PrimRef], lo: Vec3A, scale: Vec3A) -> BinSet {
+    if refs.len() >= PARALLEL_BINNING && rayon::current_num_threads() > 1 {
+        return refs
+            .par_chunks(PARALLEL_BINNING / 4)
+            .map(|chunk| bin_range(chunk, lo, scale))
+            .reduce(|| BinSet::CLEAR, |a, b| a.merge(&b));
+    }
+    let mut bins = BinSet::CLEAR;
+    if refs.len() < 2 * BINS {
+        for r in refs {
+            bins.add(r, lo, scale);
+        }
+        return bins;
+    }
+    // Neighbours in the mesh mostly share a bin, which would chain every
+    // update to the previous one through memory: odd primitives go to a
+    // second set, merged afterwards (as Embree does).
+    let mut odd = BinSet::CLEAR;
+    let mut pairs = refs.chunks_exact(2);
+    for pair in &mut pairs {
+        bins.add(&pair[0], lo, scale);
+        odd.add(&pair[1], lo, scale);
+    }
+    for r in pairs.remainder() {
+        bins.add(r, lo, scale);
+    }
+    bins.merge(&odd)
+}
+
 /// The cheapest binned split of `rec` over all axes: unnormalized cost
 /// (half areas times leaf costs of both sides) and the split.
 fn binned_sah(refs: &[PrimRef], rec: &Record) -> Option<(f32, Split)> {
@@ -453,40 +532,8 @@ fn binned_sah(refs: &[PrimRef], rec: &Record) -> Option<(f32, Split)> {
     // Just under `bins`, so the largest centroid lands in the last bin.
     let k = BINS as f32 * (1.0 - 1e-6);
     let scale = Vec3A::select(extent.cmpgt(Vec3A::ZERO), k / extent, Vec3A::ZERO);
-    let mut boxes = [[Aabb::EMPTY; BINS]; 3];
-    let mut counts = [[0u32; BINS]; 3];
-    let bin = |boxes: &mut [[Aabb; BINS]; 3], counts: &mut [[u32; BINS]; 3], r: &PrimRef| {
-        let b = bins_of(r.aabb.centroid2(), lo, scale);
-        for axis in 0..3 {
-            boxes[axis][b[axis]].grow(&r.aabb);
-            counts[axis][b[axis]] += 1;
-        }
-    };
-    if refs.len() < 2 * BINS {
-        for r in refs {
-            bin(&mut boxes, &mut counts, r);
-        }
-    } else {
-        // Neighbours in the mesh mostly share a bin, which would chain
-        // every update to the previous one through memory: odd primitives
-        // go to a second set of bins, merged afterwards (as Embree does).
-        let mut boxes2 = [[Aabb::EMPTY; BINS]; 3];
-        let mut counts2 = [[0u32; BINS]; 3];
-        let mut pairs = refs.chunks_exact(2);
-        for pair in &mut pairs {
-            bin(&mut boxes, &mut counts, &pair[0]);
-            bin(&mut boxes2, &mut counts2, &pair[1]);
-        }
-        for r in pairs.remainder() {
-            bin(&mut boxes, &mut counts, r);
-        }
-        for axis in 0..3 {
-            for i in 0..BINS {
-                boxes[axis][i].grow(&boxes2[axis][i]);
-                counts[axis][i] += counts2[axis][i];
-            }
-        }
-    }
+    let bins = bin_range(refs, lo, scale);
+    let (boxes, counts) = (&bins.boxes, &bins.counts);
     let mut best: Option<(f32, Split)> = None;
     for axis in 0..3 {
         if extent[axis] <= 0.0 {
