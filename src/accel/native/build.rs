@@ -718,7 +718,8 @@ mod tests {
 
     #[test]
     fn parallel_and_sequential_builds_give_the_same_tree() {
-        let boxes = random_boxes(3 * PARALLEL_THRESHOLD);
+        // Large enough for parallel subtrees and parallel binning.
+        let boxes = random_boxes(3 * PARALLEL_BINNING.max(PARALLEL_THRESHOLD));
         let a = build(&boxes, 4, BuildMethod::Sah);
         let b = crate::report::measure::on_threads(1, || build(&boxes, 4, BuildMethod::Sah));
         assert_eq!(a.prim_order, b.prim_order);
