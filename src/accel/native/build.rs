@@ -99,6 +99,30 @@ impl Aabb {
         self.hi = self.hi.max(p);
     }
 
+    #[inline(always)]
+    fn union(&self, o: &Aabb) -> Aabb {
+        Aabb {
+            lo: self.lo.min(o.lo),
+            hi: self.hi.max(o.hi),
+        }
+    }
+
+    #[inline(always)]
+    fn with_point(&self, p: Vec3A) -> Aabb {
+        Aabb {
+            lo: self.lo.min(p),
+            hi: self.hi.max(p),
+        }
+    }
+
+    #[inline(always)]
+    fn select(mask: glam::BVec3A, a: Aabb, b: Aabb) -> Aabb {
+        Aabb {
+            lo: Vec3A::select(mask, a.lo, b.lo),
+            hi: Vec3A::select(mask, a.hi, b.hi),
+        }
+    }
+
     /// Half the surface area (the SAH only uses ratios).
     #[inline(always)]
     fn half_area(&self) -> f32 {
@@ -331,7 +355,7 @@ fn subtree(
     }
     let children = &children[..count];
     let me = out.len();
-    out.push(Node8::new(&[(EMPTY, Bounds::EMPTY)]));
+    out.push(Node8::UNUSED);
     let mut slots = [(EMPTY, Bounds::EMPTY); WIDTH];
     if rec.len() >= PARALLEL_THRESHOLD && rayon::current_num_threads() > 1 {
         // Disjoint slices of the references, one per child, in order.
@@ -477,16 +501,15 @@ impl BinSet {
         }
     }
 
-    /// Both sets' primitives. Exact (minima, maxima and counts), so the
-    /// bins do not depend on how a range was divided.
-    fn merge(mut self, other: &BinSet) -> BinSet {
+    /// Adds `other`'s primitives. Exact (minima, maxima and counts), so
+    /// the bins do not depend on how a range was divided.
+    fn merge(&mut self, other: &BinSet) {
         for axis in 0..3 {
             for i in 0..BINS {
                 self.boxes[axis][i].grow(&other.boxes[axis][i]);
                 self.counts[axis][i] += other.counts[axis][i];
             }
         }
-        self
     }
 }
 
@@ -494,20 +517,32 @@ impl BinSet {
 /// has several threads: the first levels would otherwise run on one.
 const PARALLEL_BINNING: usize = 4096;
 
-/// Bins `refs` with the grid `lo`, `scale`.
-fn bin_range(refs: &[PrimRef], lo: Vec3A, scale: Vec3A) -> BinSet {
+/// Adds `refs` to `bins` (binned with the grid `lo`, `scale`). The sets
+/// are 1.7 KB: filled in place, never returned by value.
+fn bin_range(refs: &[PrimRef], lo: Vec3A, scale: Vec3A, bins: &mut BinSet) {
     if refs.len() >= PARALLEL_BINNING && rayon::current_num_threads() > 1 {
-        return refs
+        let parts = refs
             .par_chunks(PARALLEL_BINNING / 4)
-            .map(|chunk| bin_range(chunk, lo, scale))
-            .reduce(|| BinSet::CLEAR, |a, b| a.merge(&b));
+            .map(|chunk| {
+                let mut part = BinSet::CLEAR;
+                bin_range(chunk, lo, scale, &mut part);
+                part
+            })
+            .reduce(
+                || BinSet::CLEAR,
+                |mut a, b| {
+                    a.merge(&b);
+                    a
+                },
+            );
+        bins.merge(&parts);
+        return;
     }
-    let mut bins = BinSet::CLEAR;
     if refs.len() < 2 * BINS {
         for r in refs {
             bins.add(r, lo, scale);
         }
-        return bins;
+        return;
     }
     // Neighbours in the mesh mostly share a bin, which would chain every
     // update to the previous one through memory: odd primitives go to a
@@ -521,7 +556,7 @@ fn bin_range(refs: &[PrimRef], lo: Vec3A, scale: Vec3A) -> BinSet {
     for r in pairs.remainder() {
         bins.add(r, lo, scale);
     }
-    bins.merge(&odd)
+    bins.merge(&odd);
 }
 
 /// The cheapest binned split of `rec` over all axes: unnormalized cost
@@ -532,7 +567,8 @@ fn binned_sah(refs: &[PrimRef], rec: &Record) -> Option<(f32, Split)> {
     // Just under `bins`, so the largest centroid lands in the last bin.
     let k = BINS as f32 * (1.0 - 1e-6);
     let scale = Vec3A::select(extent.cmpgt(Vec3A::ZERO), k / extent, Vec3A::ZERO);
-    let bins = bin_range(refs, lo, scale);
+    let mut bins = BinSet::CLEAR;
+    bin_range(refs, lo, scale, &mut bins);
     let (boxes, counts) = (&bins.boxes, &bins.counts);
     let mut best: Option<(f32, Split)> = None;
     for axis in 0..3 {
@@ -598,22 +634,26 @@ fn apply_split(refs: &mut [PrimRef], rec: &Record) -> (Record, Record) {
         scale,
     }) = rec.split
     {
-        // Hoare partition, growing each side's bounds as it classifies.
+        // Branch-free Lomuto partition: the side of a primitive follows
+        // the data, so a branch on it mispredicts; instead every step swaps
+        // (everything between the two cursors is on the right) and moves
+        // the cursor by the side, and both sides' bounds are updated by
+        // selection.
         let (mut left, mut right) = ((Aabb::EMPTY, Aabb::EMPTY), (Aabb::EMPTY, Aabb::EMPTY));
-        let (mut i, mut j) = (0, n);
-        while i < j {
-            let r = refs[i].aabb;
+        let mut i = 0;
+        for k in 0..n {
+            let r = refs[k].aabb;
             let c = r.centroid2();
-            if bin_of(c[axis], lo, scale) < boundary {
-                left.0.grow(&r);
-                left.1.grow_point(c);
-                i += 1;
-            } else {
-                right.0.grow(&r);
-                right.1.grow_point(c);
-                j -= 1;
-                refs.swap(i, j);
-            }
+            let is_left = bin_of(c[axis], lo, scale) < boundary;
+            let mask = glam::BVec3A::splat(is_left);
+            let (lg, lc) = (left.0.union(&r), left.1.with_point(c));
+            let (rg, rc) = (right.0.union(&r), right.1.with_point(c));
+            left.0 = Aabb::select(mask, lg, left.0);
+            left.1 = Aabb::select(mask, lc, left.1);
+            right.0 = Aabb::select(mask, right.0, rg);
+            right.1 = Aabb::select(mask, right.1, rc);
+            refs.swap(i, k);
+            i += is_left as usize;
         }
         if i > 0 && i < n {
             return (

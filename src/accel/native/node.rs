@@ -60,6 +60,21 @@ pub struct Node8 {
 }
 
 impl Node8 {
+    /// A node with no children: a placeholder while a node's children are
+    /// being built.
+    pub const UNUSED: Node8 = Node8 {
+        planes: [
+            [f32::INFINITY; WIDTH],
+            [f32::NEG_INFINITY; WIDTH],
+            [f32::INFINITY; WIDTH],
+            [f32::NEG_INFINITY; WIDTH],
+            [f32::INFINITY; WIDTH],
+            [f32::NEG_INFINITY; WIDTH],
+        ],
+        child: [EMPTY; WIDTH],
+        order: [0; WIDTH],
+    };
+
     /// A node over up to eight children with their boxes.
     pub fn new(children: &[(ChildRef, Bounds)]) -> Node8 {
         debug_assert!(!children.is_empty() && children.len() <= WIDTH);
@@ -79,18 +94,7 @@ impl Node8 {
         let used = children.len();
         insertion_sort(&mut sorted[..used], |a, b| a.2 > b.2);
         let centres: [Vec3; WIDTH] = std::array::from_fn(|i| sorted[i].1.center());
-        let mut node = Node8 {
-            planes: [
-                [f32::INFINITY; WIDTH],
-                [f32::NEG_INFINITY; WIDTH],
-                [f32::INFINITY; WIDTH],
-                [f32::NEG_INFINITY; WIDTH],
-                [f32::INFINITY; WIDTH],
-                [f32::NEG_INFINITY; WIDTH],
-            ],
-            child: [EMPTY; WIDTH],
-            order: [0; WIDTH],
-        };
+        let mut node = Node8::UNUSED;
         for (i, (r, b, _)) in sorted[..used].iter().enumerate() {
             node.child[i] = *r;
             for axis in 0..3 {
@@ -110,14 +114,15 @@ impl Node8 {
                 if octant & 2 != 0 { 1.0 } else { -1.0 },
                 if octant & 4 != 0 { 1.0 } else { -1.0 },
             );
-            let mut keys = [f32::INFINITY; WIDTH];
-            for (key, centre) in keys.iter_mut().zip(&centres[..used]) {
-                *key = centre.dot(sign);
+            // (key, slot), farthest (largest key) first; unused slots last.
+            let mut places: [(f32, u32); WIDTH] =
+                std::array::from_fn(|i| (f32::NEG_INFINITY, i as u32));
+            for (place, centre) in places.iter_mut().zip(&centres[..used]) {
+                place.0 = centre.dot(sign);
             }
-            let mut places: [usize; WIDTH] = std::array::from_fn(|i| i);
-            insertion_sort(&mut places, |&a, &b| keys[a] > keys[b]);
+            insertion_sort(&mut places[..used], |a, b| a.0 > b.0);
             let opposite = octant ^ 7;
-            for (place, &child) in places.iter().enumerate() {
+            for (place, &(_, child)) in places.iter().enumerate() {
                 node.order[place] |= (child as u32) << (3 * octant);
                 node.order[WIDTH - 1 - place] |= (child as u32) << (3 * opposite);
             }
