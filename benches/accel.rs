@@ -8,7 +8,7 @@ use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Through
 use hybrid::accel::config::{BackendConfig, BUILD_VARIANTS, COMPARED};
 use hybrid::report::budget::SCENES;
 use hybrid::report::measure::{ray_sets, trace_all};
-use hybrid::scene::{collada, NormalMode, Scene};
+use hybrid::scene::Scene;
 
 fn scenes() -> Vec<(String, Scene)> {
     let dir = hybrid::cli::shared_scenes_dir();
@@ -21,10 +21,10 @@ fn scenes() -> Vec<(String, Scene)> {
     }
     SCENES
         .iter()
-        .map(|(size, rel)| {
+        .map(|s| {
             (
-                format!("{size}:{rel}"),
-                collada::load(&dir.join(rel), NormalMode::Smooth).expect("shared scene loads"),
+                format!("{}:{}", s.size, s.name()),
+                s.load(&dir).expect("report scene loads"),
             )
         })
         .collect()

@@ -1,6 +1,11 @@
 //! How much work the report does (full or `--quick`) and on which scenes:
 //! the sizes and the scene lists every section reads, in one place.
 
+use std::path::Path;
+
+use crate::scene::generate::sphere_cloud;
+use crate::scene::Scene;
+
 /// Sizes of the work, full or quick.
 pub struct Budget {
     /// Rays per ray kind in the per-scene trace tables.
@@ -42,8 +47,8 @@ impl Budget {
             }
         } else {
             Budget {
-                rays: 200_000,
-                repeats: 7,
+                rays: 1_000_000,
+                repeats: 5,
                 frame: (320, 240, 8),
                 error_resolution: (160, 120),
                 reference_spp: 8192,
@@ -60,13 +65,77 @@ impl Budget {
     }
 }
 
-/// The shared scenes of the per-scene tables and the headline, with their
-/// size class.
-pub const SCENES: [(&str, &str); 3] = [
-    ("small", "sky/CBspheres_lambertian.dae"),
-    ("medium", "sky/CBbunny.dae"),
-    ("large", "meshedit/maxplanck.dae"),
+/// Where a scene of the report comes from.
+#[derive(Clone, Copy, Debug)]
+pub enum Source {
+    /// A file of the shared scenes folder.
+    Shared(&'static str),
+    /// [`sphere_cloud`]: `count` icospheres of `level` (fixed seed).
+    SphereCloud { count: u32, level: u32 },
+}
+
+/// A scene of the per-scene tables and the headline.
+#[derive(Clone, Copy, Debug)]
+pub struct ReportScene {
+    /// Size class: small, medium, large, generated.
+    pub size: &'static str,
+    pub source: Source,
+}
+
+impl ReportScene {
+    /// The scene's name in tables.
+    pub fn name(&self) -> String {
+        match self.source {
+            Source::Shared(rel) => rel.to_string(),
+            Source::SphereCloud { count, level } => {
+                format!(
+                    "generated ({count} icospheres, {} triangles)",
+                    count as usize * 20 << (2 * level)
+                )
+            }
+        }
+    }
+
+    pub fn load(&self, dir: &Path) -> Result<Scene, String> {
+        match self.source {
+            Source::Shared(rel) => super::load(dir, rel),
+            Source::SphereCloud { count, level } => Ok(sphere_cloud(count, level, 1)),
+        }
+    }
+}
+
+/// The scenes of the per-scene tables and the headline: the small Cornell
+/// box, every shared mesh of 10^4+ triangles, and a generated one of about
+/// 10^6.
+pub const SCENES: [ReportScene; 5] = [
+    ReportScene {
+        size: "small",
+        source: Source::Shared("sky/CBspheres_lambertian.dae"),
+    },
+    ReportScene {
+        size: "medium",
+        source: Source::Shared("sky/CBbunny.dae"),
+    },
+    ReportScene {
+        size: "medium",
+        source: Source::Shared("sky/bunny.dae"),
+    },
+    ReportScene {
+        size: "large",
+        source: Source::Shared("meshedit/maxplanck.dae"),
+    },
+    ReportScene {
+        size: "generated",
+        source: Source::SphereCloud {
+            count: 64,
+            level: 5,
+        },
+    },
 ];
+
+/// Above this many primitives only the compared backends' builds are
+/// timed (a high-quality Embree build of 10^6 triangles takes seconds).
+pub const ALL_BUILDS_UP_TO: usize = 200_000;
 
 /// Small scenes for the "with and without acceleration" table.
 pub const BRUTE_FORCE_SCENES: [&str; 4] = [

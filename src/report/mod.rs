@@ -76,10 +76,16 @@ pub fn run(options: &ReportOptions, log: &mut dyn FnMut(&str)) -> Result<(), Str
         .description();
 
     let mut per_scene = Vec::new();
-    for (size, rel) in SCENES {
-        let scene = load(&options.scenes_dir, rel)?;
-        per_scene.push(scenes::measure(size, rel, &scene, &budget, threads)?);
-        step(&format!("{rel} measured"));
+    for s in &SCENES {
+        let scene = s.load(&options.scenes_dir)?;
+        per_scene.push(scenes::measure(
+            s.size,
+            &s.name(),
+            &scene,
+            &budget,
+            threads,
+        )?);
+        step(&format!("{} measured", s.name()));
     }
     let brute_rows = brute::measure(&options.scenes_dir, &budget)?;
     step("brute force measured");
@@ -108,10 +114,7 @@ pub fn run(options: &ReportOptions, log: &mut dyn FnMut(&str)) -> Result<(), Str
         budget.rays,
         budget.repeats
     );
-    md += &format!(
-        "## Headline (1 thread, Mrays/s; builds in ms)\n\nRatios are native / Embree: greater than 1 means native is faster.\n\n{}\n",
-        headline.markdown()
-    );
+    md += &headline::markdown(&headline, &per_scene);
     md += &scenes_md;
     md += &format!(
         "## With and without acceleration (camera rays, 1 thread)\n\n{}\n",

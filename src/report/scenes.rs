@@ -5,6 +5,7 @@
 use serde_json::{json, Value};
 
 use super::budget::Budget;
+use super::budget::ALL_BUILDS_UP_TO;
 use super::measure::{mrays, on_threads, ray_sets, time_repeats, Timing};
 use super::table::{Cell, Measured, Table};
 use crate::accel::config::{BUILD_VARIANTS, COMPARED};
@@ -47,6 +48,7 @@ pub struct SceneResult {
     pub size: &'static str,
     pub scene: String,
     pub primitives: usize,
+    pub triangles: usize,
     pub threads: usize,
     pub builds: Vec<BuildRow>,
     pub traces: Vec<TraceRow>,
@@ -89,7 +91,12 @@ pub fn measure(
     threads: usize,
 ) -> Result<SceneResult, String> {
     let mut builds = Vec::new();
-    for config in &BUILD_VARIANTS {
+    let variants: &[BackendConfig] = if scene.primitive_count() <= ALL_BUILDS_UP_TO {
+        &BUILD_VARIANTS
+    } else {
+        &COMPARED
+    };
+    for config in variants {
         builds.push(BuildRow {
             config: *config,
             one_thread: time_build(scene, config, 1, budget.repeats)?,
@@ -151,6 +158,7 @@ pub fn measure(
         size,
         scene: rel.to_string(),
         primitives: scene.primitive_count(),
+        triangles: scene.triangle_count(),
         threads,
         builds,
         stream: Measured::per_second_millions(camera.len(), &stream),

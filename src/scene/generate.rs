@@ -143,3 +143,35 @@ pub fn white_furnace(albedo: f32, emission: f32) -> Scene {
     );
     b.finish(NormalMode::Flat)
 }
+
+/// A cloud of `count` icospheres (level `level`, 20 * 4^level triangles
+/// each) of random sizes at random places in `[-1, 1]^3`, some overlapping,
+/// with an area light above: many separate objects of varying size and
+/// density, a harder case for a BVH than one smooth mesh. The same `seed`
+/// gives the same scene.
+pub fn sphere_cloud(count: u32, level: u32, seed: u64) -> Scene {
+    let mut rng = crate::render::sampling::Rng::new(seed, 21);
+    let (unit, tris) = icosphere(level);
+    let mut b = SceneBuilder::new(&format!(
+        "generated: {count} icospheres, {} triangles",
+        count as usize * tris.len()
+    ));
+    let m = b.material(Material::lambertian(Vec3::splat(0.6)));
+    for _ in 0..count {
+        let centre = Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) * 1.8 - 0.9;
+        let radius = 0.04 + 0.2 * rng.next_f32() * rng.next_f32();
+        let positions: Vec<Vec3> = unit.iter().map(|p| centre + *p * radius).collect();
+        b.mesh(&positions, &tris, m);
+    }
+    b.light(crate::scene::Light::Area(crate::scene::AreaLight {
+        origin: Vec3::new(-0.5, 1.5, -0.5),
+        edge_u: Vec3::new(1.0, 0.0, 0.0),
+        edge_v: Vec3::new(0.0, 0.0, 1.0),
+        triangle: false,
+        normal: Vec3::new(0.0, -1.0, 0.0),
+        radiance: Vec3::splat(4.0),
+        area: 1.0,
+    }));
+    b.camera(Vec3::new(0.0, 0.4, 3.5), Vec3::ZERO, 50.0, 40.0);
+    b.finish(NormalMode::Smooth)
+}
