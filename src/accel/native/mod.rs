@@ -13,6 +13,7 @@
 
 pub mod build;
 pub mod cpu;
+mod memory;
 pub mod node;
 pub mod sphere;
 pub mod traverse;
@@ -139,7 +140,7 @@ impl NativeBvh {
         let prim_order = &tri_tree.prim_order;
         let triangle_store = match options.triangle {
             TriangleMode::MollerTrumbore => {
-                let mut blocks = Vec::with_capacity(mesh.len() / 3 + 1);
+                let mut blocks = memory::reserve(mesh.len() / 3 + 1);
                 for node in &mut triangles {
                     node.remap_leaves(|first, count| {
                         let block = blocks.len() as u32;
