@@ -90,7 +90,7 @@ impl ReportScene {
             Source::SphereCloud { count, level } => {
                 format!(
                     "generated ({count} icospheres, {} triangles)",
-                    count as usize * 20 << (2 * level)
+                    (count as usize * 20) << (2 * level)
                 )
             }
         }

@@ -14,6 +14,7 @@
 pub mod build;
 pub mod cpu;
 mod memory;
+mod pack;
 pub mod node;
 pub mod sphere;
 pub mod traverse;
@@ -22,10 +23,11 @@ pub mod triangle;
 use std::time::Instant;
 
 use glam::Vec3;
+use rayon::prelude::*;
 
 use self::build::{BuildMethod, BuiltTree, TreeShape};
 use self::cpu::Avx2;
-use self::node::{leaf, Node8, MAX_LEAF_FIRST};
+use self::node::{Node8, MAX_LEAF_FIRST};
 use self::traverse::{BoxRay, BoxTest, Leaves, Work, MAX_DEPTH};
 use self::triangle::{TriangleBlock4, TriangleMode, TriangleTest, Watertight};
 use super::{Accel, AccelError, AccelStats, Hit, Ray, TraceCounters};
@@ -123,6 +125,7 @@ impl NativeBvh {
             )));
         }
         let tri_boxes: Vec<Bounds> = (0..mesh.len())
+            .into_par_iter()
             .map(|i| bounds_of(&mesh.corners(i)))
             .collect();
         let sphere_boxes: Vec<Bounds> = scene
@@ -140,58 +143,43 @@ impl NativeBvh {
         let prim_order = &tri_tree.prim_order;
         let triangle_store = match options.triangle {
             TriangleMode::MollerTrumbore => {
-                let mut blocks = memory::reserve(mesh.len() / 3 + 1);
-                for node in &mut triangles {
-                    node.remap_leaves(|first, count| {
-                        let block = blocks.len() as u32;
-                        let slots = &prim_order[first as usize..(first + count) as usize];
-                        for lanes in slots.chunks(4) {
-                            blocks.push(TriangleBlock4::EMPTY);
-                            let b = blocks.last_mut().expect("just pushed");
-                            for (lane, &prim) in lanes.iter().enumerate() {
-                                let [v0, v1, v2] = mesh.corners(prim as usize);
-                                let tri = triangle::MollerTrumbore::prepare(v0, v1, v2);
-                                b.set_lane(lane, &tri, prim);
-                            }
+                TriangleStore::Blocks(pack::pack(&mut triangles, 4, TriangleBlock4::EMPTY, |first, count, blocks| {
+                    let slots = &prim_order[first as usize..(first + count) as usize];
+                    for (block, lanes) in blocks.iter_mut().zip(slots.chunks(4)) {
+                        for (lane, &prim) in lanes.iter().enumerate() {
+                            let [v0, v1, v2] = mesh.corners(prim as usize);
+                            block.set_lane(lane, &triangle::MollerTrumbore::prepare(v0, v1, v2), prim);
                         }
-                        leaf(block, count.div_ceil(4))
-                    });
-                }
-                TriangleStore::Blocks(blocks)
+                    }
+                }))
             }
             TriangleMode::Watertight => {
-                let mut corners = Vec::with_capacity(mesh.len());
-                for node in &mut triangles {
-                    node.remap_leaves(|first, count| {
-                        let at = corners.len() as u32;
-                        for slot in first..first + count {
-                            let prim = prim_order[slot as usize];
-                            let [a, b, c] = mesh.corners(prim as usize);
-                            corners.push((Watertight::prepare(a, b, c), prim));
-                        }
-                        leaf(at, count)
-                    });
-                }
-                TriangleStore::Corners(corners)
+                TriangleStore::Corners(pack::pack(&mut triangles, 1, ([Vec3::ZERO; 3], 0), |first, count, out| {
+                    for (item, slot) in out.iter_mut().zip(first..first + count) {
+                        let prim = prim_order[slot as usize];
+                        let [a, b, c] = mesh.corners(prim as usize);
+                        *item = (Watertight::prepare(a, b, c), prim);
+                    }
+                }))
             }
         };
         let mut spheres = sphere_tree.nodes;
-        let mut sphere_items = Vec::with_capacity(scene.spheres.len());
-        for node in &mut spheres {
-            node.remap_leaves(|first, count| {
-                let at = sphere_items.len() as u32;
-                for slot in first..first + count {
-                    let i = sphere_tree.prim_order[slot as usize];
-                    let s = &scene.spheres[i as usize];
-                    sphere_items.push(SphereItem {
-                        center: s.center,
-                        radius: s.radius,
-                        prim: mesh.len() as u32 + i,
-                    });
-                }
-                leaf(at, count)
-            });
-        }
+        let empty = SphereItem {
+            center: Vec3::ZERO,
+            radius: 0.0,
+            prim: u32::MAX,
+        };
+        let sphere_items = pack::pack(&mut spheres, 1, empty, |first, count, out| {
+            for (item, slot) in out.iter_mut().zip(first..first + count) {
+                let i = sphere_tree.prim_order[slot as usize];
+                let s = &scene.spheres[i as usize];
+                *item = SphereItem {
+                    center: s.center,
+                    radius: s.radius,
+                    prim: mesh.len() as u32 + i,
+                };
+            }
+        });
         let (t, s) = (tri_tree.shape, sphere_tree.shape);
         Ok(NativeBvh {
             options: *options,
