@@ -55,6 +55,9 @@ fn main() {
         } else {
             String::new()
         };
-        println!("{path}, {threads} threads, median of {repeats}: {}{ratio}", line.join(", "));
+        println!(
+            "{path}, {threads} threads, median of {repeats}: {}{ratio}",
+            line.join(", ")
+        );
     });
 }

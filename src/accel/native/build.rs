@@ -341,42 +341,32 @@ fn subtree(
         depth,
         ..Stats::default()
     };
-    // The children, in the order of their ranges (each split replaces a
-    // child by its two sides, left first).
-    let mut children = [rec; WIDTH];
-    let mut count = 1;
-    while count < WIDTH {
-        let Some(i) = (0..count)
-            .filter(|&i| children[i].split.is_some())
-            .max_by(|&a, &b| {
-                children[a]
-                    .geom
-                    .half_area()
-                    .total_cmp(&children[b].geom.half_area())
-            })
-        else {
-            break;
-        };
-        let c = children[i];
-        stats.sah += c.geom.half_area() as f64 * TRAVERSAL_COST as f64;
-        let (mut l, mut r) = apply_split(&mut refs[local(&c)], &c);
-        let (left, right) = (&refs[local(&l)], &refs[local(&r)]);
-        (l.split, r.split) = if c.len() >= PARALLEL_BINNING && rayon::current_num_threads() > 1 {
-            rayon::join(
-                || find_split(left, &l, settings),
-                || find_split(right, &r, settings),
-            )
-        } else {
-            (
-                find_split(left, &l, settings),
-                find_split(right, &r, settings),
-            )
-        };
-        children.copy_within(i + 1..count, i + 2);
-        children[i] = l;
-        children[i + 1] = r;
-        count += 1;
-    }
+    let (children, count) = if rec.len() >= HALVES_ABOVE {
+        // Too large to split serially: one split, then each side forms
+        // half the node on its own (concurrently). A fixed size rule, so
+        // the tree does not depend on the thread count; the binary splits
+        // are the same as largest-first would make, only grouped
+        // differently at these top levels.
+        stats.sah += rec.geom.half_area() as f64 * TRAVERSAL_COST as f64;
+        let (mut l, mut r) = apply_split(&mut refs[local(&rec)], &rec);
+        let (left, right) = refs.split_at_mut(l.end - base);
+        (l.split, r.split) = rayon::join(
+            || find_split(left, &l, settings),
+            || find_split(right, &r, settings),
+        );
+        let ((lc, ln, ls), (rc, rn, rs)) = rayon::join(
+            || form(left, l.start, l, WIDTH / 2, settings),
+            || form(right, r.start, r, WIDTH / 2, settings),
+        );
+        stats.sah += ls + rs;
+        let mut children = lc;
+        children[ln..ln + rn].copy_from_slice(&rc[..rn]);
+        (children, ln + rn)
+    } else {
+        let (children, count, sah) = form(refs, base, rec, WIDTH, settings);
+        stats.sah += sah;
+        (children, count)
+    };
     let children = &children[..count];
     let me = out.len();
     out.push(Node8::UNUSED);
@@ -425,6 +415,60 @@ fn subtree(
     }
     out[me] = Node8::new(&slots[..count]);
     (me as ChildRef, stats)
+}
+
+/// Ranges at least this large form their node in two concurrent halves.
+const HALVES_ABOVE: usize = 65_536;
+
+/// Splits `rec` (its references are `refs`, which start at `base`) into
+/// at most `max` children, always splitting the child with the largest
+/// surface area next (Embree's rule for wide nodes). Returns the children
+/// in the order of their ranges, their count, and the SAH cost of the
+/// binary splits made (unnormalized).
+fn form(
+    refs: &mut [PrimRef],
+    base: usize,
+    rec: Record,
+    max: usize,
+    settings: &Settings,
+) -> ([Record; WIDTH], usize, f64) {
+    let local = |r: &Record| (r.start - base)..(r.end - base);
+    let mut sah = 0.0;
+    let mut children = [rec; WIDTH];
+    let mut count = 1;
+    while count < max {
+        let Some(i) = (0..count)
+            .filter(|&i| children[i].split.is_some())
+            .max_by(|&a, &b| {
+                children[a]
+                    .geom
+                    .half_area()
+                    .total_cmp(&children[b].geom.half_area())
+            })
+        else {
+            break;
+        };
+        let c = children[i];
+        sah += c.geom.half_area() as f64 * TRAVERSAL_COST as f64;
+        let (mut l, mut r) = apply_split(&mut refs[local(&c)], &c);
+        let (left, right) = (&refs[local(&l)], &refs[local(&r)]);
+        (l.split, r.split) = if c.len() >= PARALLEL_BINNING && rayon::current_num_threads() > 1 {
+            rayon::join(
+                || find_split(left, &l, settings),
+                || find_split(right, &r, settings),
+            )
+        } else {
+            (
+                find_split(left, &l, settings),
+                find_split(right, &r, settings),
+            )
+        };
+        children.copy_within(i + 1..count, i + 2);
+        children[i] = l;
+        children[i + 1] = r;
+        count += 1;
+    }
+    (children, count, sah)
 }
 
 /// A child of a node: a leaf, or the subtree under it.

@@ -14,8 +14,8 @@
 pub mod build;
 pub mod cpu;
 mod memory;
-mod pack;
 pub mod node;
+mod pack;
 pub mod sphere;
 pub mod traverse;
 pub mod triangle;
@@ -142,26 +142,36 @@ impl NativeBvh {
         let mut triangles = tri_tree.nodes;
         let prim_order = &tri_tree.prim_order;
         let triangle_store = match options.triangle {
-            TriangleMode::MollerTrumbore => {
-                TriangleStore::Blocks(pack::pack(&mut triangles, 4, TriangleBlock4::EMPTY, |first, count, blocks| {
+            TriangleMode::MollerTrumbore => TriangleStore::Blocks(pack::pack(
+                &mut triangles,
+                4,
+                TriangleBlock4::EMPTY,
+                |first, count, blocks| {
                     let slots = &prim_order[first as usize..(first + count) as usize];
                     for (block, lanes) in blocks.iter_mut().zip(slots.chunks(4)) {
                         for (lane, &prim) in lanes.iter().enumerate() {
                             let [v0, v1, v2] = mesh.corners(prim as usize);
-                            block.set_lane(lane, &triangle::MollerTrumbore::prepare(v0, v1, v2), prim);
+                            block.set_lane(
+                                lane,
+                                &triangle::MollerTrumbore::prepare(v0, v1, v2),
+                                prim,
+                            );
                         }
                     }
-                }))
-            }
-            TriangleMode::Watertight => {
-                TriangleStore::Corners(pack::pack(&mut triangles, 1, ([Vec3::ZERO; 3], 0), |first, count, out| {
+                },
+            )),
+            TriangleMode::Watertight => TriangleStore::Corners(pack::pack(
+                &mut triangles,
+                1,
+                ([Vec3::ZERO; 3], 0),
+                |first, count, out| {
                     for (item, slot) in out.iter_mut().zip(first..first + count) {
                         let prim = prim_order[slot as usize];
                         let [a, b, c] = mesh.corners(prim as usize);
                         *item = (Watertight::prepare(a, b, c), prim);
                     }
-                }))
-            }
+                },
+            )),
         };
         let mut spheres = sphere_tree.nodes;
         let empty = SphereItem {
