@@ -8,7 +8,7 @@ use glam::Vec3;
 use super::native::sphere::intersect_sphere;
 use super::native::triangle::{MollerTrumbore, TriangleTest};
 use super::{Accel, AccelStats, Hit, Ray, TraceCounters};
-use crate::scene::Scene;
+use crate::scene::{unit, Scene};
 
 pub struct BruteForce {
     /// `v0, e1, e2` per triangle, in scene order.
@@ -46,7 +46,7 @@ impl BruteForce {
             counters.prim_tests += 1;
             if let Some((t, u, v)) = MollerTrumbore::intersect(tri, &setup, ray.t_min, t_max) {
                 t_max = t;
-                let normal = tri[1].cross(tri[2]).normalize_or_zero();
+                let normal = unit(tri[1].cross(tri[2]));
                 best = Some(Hit {
                     t,
                     prim: i as u32,

@@ -21,6 +21,12 @@ pub struct Ray {
 /// point (a few ulps of `|p|`) for scenes far from the origin.
 pub const SPAWN_EPSILON: f32 = 1e-5;
 
+/// The largest ray origin or direction component any backend traces:
+/// Embree's documented valid range is ±1.844e18 and it aborts the process
+/// beyond it, so every backend treats rays outside as misses (the loader
+/// scales scenes far larger than this into range).
+pub const COORDINATE_LIMIT: f32 = 1.8e18;
+
 /// A shadow ray stops at this fraction of the distance to the light
 /// sample, so the light's own surface does not shadow it.
 pub const SHADOW_END: f32 = 1.0 - 1e-4;
@@ -65,12 +71,16 @@ impl Ray {
         self.origin + self.dir * t
     }
 
-    /// Rays with NaN or infinite components, a zero direction or an empty
-    /// interval are reported as misses by every backend, never traced.
+    /// Rays with NaN or infinite components, components beyond
+    /// [`COORDINATE_LIMIT`], a zero direction or an empty interval are
+    /// reported as misses by every backend, never traced.
     #[inline]
     pub fn is_traceable(&self) -> bool {
+        // `max_element` skips NaN, hence the finiteness tests.
         self.origin.is_finite()
             && self.dir.is_finite()
+            && self.origin.abs().max_element() <= COORDINATE_LIMIT
+            && self.dir.abs().max_element() <= COORDINATE_LIMIT
             && self.dir != Vec3::ZERO
             && self.t_min >= 0.0
             && self.t_min <= self.t_max

@@ -83,13 +83,30 @@ pub fn choice<T: Choice + Send + Sync>() -> impl TypedValueParser<Value = T> {
         .try_map(|name| T::from_name(&name).ok_or_else(|| format!("unknown value '{name}'")))
 }
 
-/// Loads `path`, or the built-in default scene when there is none.
-pub fn load_scene(path: Option<&Path>, normals: NormalMode) -> Result<Scene, String> {
-    match path {
-        Some(p) => collada::load(p, normals).map_err(|e| e.to_string()),
-        None => {
-            collada::load_str(DEFAULT_SCENE, DEFAULT_SCENE_NAME, normals).map_err(|e| e.to_string())
+/// The scene argument shared by `render` and `parity`.
+#[derive(clap::Args, Debug, Clone)]
+pub struct SceneInput {
+    /// Scene file (.dae); the project's default scene when omitted.
+    pub scene: Option<PathBuf>,
+    /// Largest scene file read, in MiB (larger files are refused before
+    /// they are read).
+    #[arg(long, value_name = "MIB", default_value_t = collada::DEFAULT_MAX_BYTES >> 20)]
+    pub max_scene_mb: u64,
+}
+
+impl SceneInput {
+    /// Loads the scene, or the built-in default scene when none was given.
+    /// Its warnings go to stderr, one `hybrid: warning:` line each.
+    pub fn load(&self, normals: NormalMode) -> Result<Scene, String> {
+        let scene = match &self.scene {
+            Some(p) => collada::load_limited(p, normals, self.max_scene_mb.saturating_mul(1 << 20)),
+            None => collada::load_str(DEFAULT_SCENE, DEFAULT_SCENE_NAME, normals),
         }
+        .map_err(|e| e.to_string())?;
+        for warning in &scene.warnings {
+            eprintln!("hybrid: warning: {warning}");
+        }
+        Ok(scene)
     }
 }
 

@@ -2,7 +2,6 @@
 //! kind, and (`--hard`) the hard-case table. Exits 1 when agreement falls
 //! below the thresholds of `docs/parity.md`.
 
-use std::path::PathBuf;
 
 use clap::Args;
 
@@ -12,8 +11,8 @@ use crate::scene::NormalMode;
 
 #[derive(Args, Debug, Clone)]
 pub struct ParityArgs {
-    /// Scene file (.dae); the project's default scene when omitted.
-    pub scene: Option<PathBuf>,
+    #[command(flatten)]
+    pub input: super::SceneInput,
     /// Rays per ray kind.
     #[arg(long, default_value_t = 10_000)]
     pub rays: usize,
@@ -30,9 +29,9 @@ pub fn run(args: &ParityArgs) -> Result<bool, String> {
     if args.rays == 0 {
         return Err("--rays 0: at least one ray per kind is needed".into());
     }
-    let scene = super::load_scene(args.scene.as_deref(), NormalMode::Smooth)?;
+    let scene = args.input.load(NormalMode::Smooth)?;
     if args.hard {
-        let scanned = args.scene.as_ref().map(|_| &scene);
+        let scanned = args.input.scene.as_ref().map(|_| &scene);
         let cases = hard::cases(args.rays, args.seed, scanned);
         let reports = hard::run_all(&cases).map_err(|e| e.to_string())?;
         say!(

@@ -29,8 +29,8 @@ pub enum AccelArg {
 
 #[derive(Args, Debug, Clone)]
 pub struct RenderArgs {
-    /// Scene file (.dae); the project's default scene when omitted.
-    pub scene: Option<PathBuf>,
+    #[command(flatten)]
+    pub input: super::SceneInput,
     /// Acceleration backend.
     #[arg(long, value_enum, default_value_t = AccelArg::Native)]
     pub accel: AccelArg,
@@ -230,6 +230,7 @@ impl RenderArgs {
             return f.clone();
         }
         let stem = self
+            .input
             .scene
             .as_ref()
             .and_then(|s| s.file_stem())
@@ -272,7 +273,7 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
     };
 
     let start = Instant::now();
-    let scene = super::load_scene(args.scene.as_deref(), normal_mode)?;
+    let scene = args.input.load(normal_mode)?;
     say!("{}", scene.summary());
     say!(
         "collected {} primitives in {:.1} ms",

@@ -1,12 +1,17 @@
 //! [`SceneBuilder`]: how every scene is assembled and finished, whether it
 //! comes from a COLLADA file (`collada.rs`) or from code (`generate.rs`).
-//! Finishing happens here only, in one order: framing bounds (meshes and
-//! spheres), lights for emissive triangles and spheres, the rectangles of
-//! area lights as geometry, then shading normals.
+//! Finishing happens here only, in one order: scaling into the range both
+//! backends trace exactly, framing bounds (meshes and spheres), lights for
+//! emissive triangles and spheres, the rectangles of area lights as
+//! geometry, then shading normals.
 
 use glam::{Mat4, Vec3};
 
 use super::{AreaLight, Bounds, CameraSpec, Light, Material, NormalMode, Scene, Sphere};
+
+/// Coordinates up to this magnitude (and down to its inverse) are used as
+/// they are; see [`SceneBuilder::finish`].
+pub const RANGE: f32 = (1u64 << 40) as f32;
 
 /// Builds a [`Scene`] piece by piece.
 pub struct SceneBuilder {
@@ -41,12 +46,20 @@ impl SceneBuilder {
     /// normal: they are skipped and counted, not loaded.
     pub fn face(&mut self, corners: [u32; 3], material: u32) {
         let [a, b, c] = corners.map(|i| self.scene.mesh.positions[i as usize]);
+        // In double: the squared area of a tiny (or huge) triangle leaves
+        // the f32 range before the scene is scaled into range.
+        let (a, b, c) = (a.as_dvec3(), b.as_dvec3(), c.as_dvec3());
         if (b - a).cross(c - a).length_squared() == 0.0 {
             self.scene.degenerate_triangles += 1;
             return;
         }
         self.scene.mesh.indices.push(corners);
         self.scene.mesh.materials.push(material);
+    }
+
+    /// Records a warning for the user (one line).
+    pub fn warn(&mut self, message: impl Into<String>) {
+        self.scene.warnings.push(message.into());
     }
 
     /// Counts polygons as the file states them (before triangulation).
@@ -100,6 +113,7 @@ impl SceneBuilder {
 
     /// Finishes the scene (see the module documentation for the order).
     pub fn finish(mut self, normal_mode: NormalMode) -> Scene {
+        self.scale_into_range();
         let scene = &mut self.scene;
         scene.framing_bounds = scene.bounds();
         if scene.framing_bounds.is_empty() {
@@ -109,6 +123,17 @@ impl SceneBuilder {
             };
         }
         scene.add_emitter_lights();
+        if scene.primitive_count() == 0 {
+            scene
+                .warnings
+                .push(format!("{}: the scene has no geometry: every ray misses", scene.name));
+        }
+        if scene.lights.is_empty() {
+            scene.warnings.push(format!(
+                "{}: the scene has no lights and nothing emits: path-traced images are black (--normals still shows the geometry)",
+                scene.name
+            ));
+        }
         self.add_light_rectangles();
         let scene = &mut self.scene;
         scene.normal_mode = normal_mode;
@@ -116,6 +141,74 @@ impl SceneBuilder {
             scene.mesh.compute_smooth_normals();
         }
         self.scene
+    }
+
+    /// Scenes whose coordinates reach beyond [`RANGE`] (or stay below its
+    /// inverse) are scaled by a power of two, which is exact in floating
+    /// point, so that their largest coordinate lies in [2^20, 2^21): Embree
+    /// aborts on rays beyond 1.8e18 and both backends lose precision in
+    /// squared magnitudes long before (a scene at 1e16 rendered wrong on
+    /// both). Images do not change: point lights keep their irradiance
+    /// (intensity scaled by the square), directions are untouched.
+    fn scale_into_range(&mut self) {
+        let s = &mut self.scene;
+        let mut m = 0.0f32;
+        let mut see = |p: Vec3| m = m.max(p.abs().max_element());
+        s.mesh.positions.iter().for_each(|&p| see(p));
+        for sp in &s.spheres {
+            see(sp.center.abs() + sp.radius);
+        }
+        for l in &s.lights {
+            match *l {
+                Light::Area(a) => {
+                    see(a.origin);
+                    see(a.origin + a.edge_u + a.edge_v);
+                }
+                Light::Point { position, .. } => see(position),
+                _ => {}
+            }
+        }
+        see(s.camera.transform.w_axis.truncate());
+        if !(m > 0.0) || !m.is_finite() || (1.0 / RANGE..=RANGE).contains(&m) {
+            return;
+        }
+        // m = f 2^e with f in [1, 2): scale by 2^(20 - e), exact in f64.
+        let e = m.log2().floor() as i32;
+        let k = 20 - e;
+        let scale = 2f64.powi(k);
+        let by = |x: f32| (x as f64 * scale) as f32;
+        let v = |p: Vec3| Vec3::new(by(p.x), by(p.y), by(p.z));
+        for p in &mut s.mesh.positions {
+            *p = v(*p);
+        }
+        for sp in &mut s.spheres {
+            sp.center = v(sp.center);
+            sp.radius = by(sp.radius);
+        }
+        let square = |x: f32| (x as f64 * scale * scale) as f32;
+        for l in &mut s.lights {
+            match l {
+                Light::Area(a) => {
+                    a.origin = v(a.origin);
+                    a.edge_u = v(a.edge_u);
+                    a.edge_v = v(a.edge_v);
+                    a.area = (a.edge_u.as_dvec3().length() * a.edge_v.as_dvec3().length()) as f32;
+                }
+                Light::Point {
+                    position,
+                    intensity,
+                } => {
+                    *position = v(*position);
+                    *intensity = Vec3::new(square(intensity.x), square(intensity.y), square(intensity.z));
+                }
+                _ => {}
+            }
+        }
+        s.camera.transform = Mat4::from_scale(Vec3::splat(scale as f32)) * s.camera.transform;
+        s.warnings.push(format!(
+            "{}: coordinates reach {m:.3e}, beyond the range both backends trace exactly (2^-40..2^40); the scene is scaled by 2^{k} (exactly), which leaves the image unchanged",
+            s.name
+        ));
     }
 
     /// Adds the rectangles of area lights as geometry (two triangles each,

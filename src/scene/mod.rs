@@ -17,6 +17,19 @@ pub use self::material::Material;
 
 use glam::{Mat4, Vec3};
 
+/// `v` scaled to unit length, or zero for a zero or non-finite `v`. Safe
+/// for any finite `v`: it is divided by its largest component first, so a
+/// cross product of long edges (1e12 squared and squared again overflows
+/// `f32`) still has a direction.
+#[inline]
+pub fn unit(v: Vec3) -> Vec3 {
+    let m = v.abs().max_element();
+    if !(m > 0.0) || !m.is_finite() {
+        return Vec3::ZERO;
+    }
+    (v / m).normalize_or_zero()
+}
+
 /// Which normal the shading uses.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
 pub enum NormalMode {
@@ -68,25 +81,18 @@ impl TriangleMesh {
     }
 
     /// Fills `normals` with the normalized, area-weighted sum of the face
-    /// normals around each vertex.
+    /// normals around each vertex (summed in double precision: areas of
+    /// large scenes overflow `f32` when squared).
     pub fn compute_smooth_normals(&mut self) {
-        let mut normals = vec![Vec3::ZERO; self.positions.len()];
+        let mut sums = vec![glam::DVec3::ZERO; self.positions.len()];
         for tri in &self.indices {
-            let [a, b, c] = *tri;
-            let (pa, pb, pc) = (
-                self.positions[a as usize],
-                self.positions[b as usize],
-                self.positions[c as usize],
-            );
-            let n = (pb - pa).cross(pc - pa);
+            let [a, b, c] = tri.map(|i| self.positions[i as usize].as_dvec3());
+            let n = (b - a).cross(c - a);
             for v in tri {
-                normals[*v as usize] += n;
+                sums[*v as usize] += n;
             }
         }
-        for n in &mut normals {
-            *n = n.normalize_or_zero();
-        }
-        self.normals = normals;
+        self.normals = sums.iter().map(|n| n.normalize_or_zero().as_vec3()).collect();
     }
 }
 
@@ -181,6 +187,8 @@ pub struct Scene {
     pub polygon_count: usize,
     /// Zero-area triangles skipped at load.
     pub degenerate_triangles: usize,
+    /// What the loader accepted but a user should know (one line each).
+    pub warnings: Vec<String>,
 }
 
 /// Shading data of a hit, derived from the scene.
@@ -241,9 +249,9 @@ impl Scene {
                 edge_u: b - a,
                 edge_v: c - a,
                 triangle: true,
-                normal: n.normalize(),
+                normal: unit(n),
                 radiance,
-                area: 0.5 * n.length(),
+                area: (0.5 * n.as_dvec3().length()) as f32,
             }));
         }
     }
@@ -264,7 +272,7 @@ impl Scene {
     pub fn surface_point(&self, prim: u32, position: Vec3, u: f32, v: f32) -> SurfacePoint {
         let p = prim as usize;
         if p < self.mesh.len() {
-            let ng = self.mesh.face_normal(p).normalize_or_zero();
+            let ng = unit(self.mesh.face_normal(p));
             let ns = match self.normal_mode {
                 NormalMode::Flat => ng,
                 NormalMode::Smooth => {

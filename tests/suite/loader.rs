@@ -251,7 +251,7 @@ fn bad_input_gives_one_clear_error() {
     );
     assert_mentions(
         &error_after(|t| t.replacen("count=\"12\"", "count=\"13\"", 1)),
-        &["bad.dae:", "<float_array>", "13"],
+        &["bad.dae:", "<float_array id=\"floor-positions-array\">", "13"],
     );
     assert_mentions(
         &error_after(|t| t.replacen("1 1.98", "1 nan", 1)),

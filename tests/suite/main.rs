@@ -7,6 +7,7 @@ mod common;
 mod bvh;
 mod cli;
 mod embree_backend;
+mod hostile;
 
 mod integrators;
 mod loader;

@@ -26,7 +26,7 @@ use glam::Vec3;
 
 pub use self::sys::BuildQuality;
 use super::{Accel, AccelError, AccelStats, Hit, Ray, TraceCounters};
-use crate::scene::Scene;
+use crate::scene::{unit, Scene};
 
 /// Options of the Embree backend.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -127,7 +127,7 @@ impl<'s> EmbreeAccel<'s> {
                 continue;
             }
             let centroid = (a + b + c) / 3.0;
-            let n = n.normalize();
+            let n = unit(n);
             let origin = centroid + n * 1e-3 * (b - a).length().max(1e-6);
             if let Some(hit) =
                 self.scene
@@ -193,7 +193,7 @@ impl EmbreeAccel<'_> {
                 prim: self.triangle_count + h.primitive,
                 u: 0.0,
                 v: 0.0,
-                normal: ng.normalize_or_zero(),
+                normal: unit(ng),
             };
         }
         Hit {
@@ -201,7 +201,7 @@ impl EmbreeAccel<'_> {
             prim: h.primitive,
             u: h.u,
             v: h.v,
-            normal: (ng * self.normal_sign).normalize_or_zero(),
+            normal: unit(ng * self.normal_sign),
         }
     }
 }

@@ -32,7 +32,7 @@ use self::traverse::{BoxRay, BoxTest, Leaves, Work, MAX_DEPTH};
 use self::triangle::{TriangleBlock4, TriangleMode, TriangleTest, Watertight};
 use super::{Accel, AccelError, AccelStats, Hit, Ray, TraceCounters};
 use crate::choice::Choice;
-use crate::scene::{Bounds, Scene};
+use crate::scene::{unit, Bounds, Scene};
 
 /// Build and traversal options of the native backend.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -273,7 +273,7 @@ impl NativeBvh {
                         prim: block.prim(lane),
                         u,
                         v,
-                        normal: e1.cross(e2).normalize_or_zero(),
+                        normal: unit(e1.cross(e2)),
                     });
                 }
             }
@@ -298,7 +298,7 @@ impl NativeBvh {
                         prim: *prim,
                         u,
                         v,
-                        normal: (tri[1] - tri[0]).cross(tri[2] - tri[0]).normalize_or_zero(),
+                        normal: unit((tri[1] - tri[0]).cross(tri[2] - tri[0])),
                     });
                 }
             }

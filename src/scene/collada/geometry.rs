@@ -8,6 +8,10 @@ use roxmltree::Node;
 
 use super::{child, elements, Loader, Result};
 
+/// Inputs of one index layout (offsets 0..MAX_INPUTS); the dialect uses up
+/// to three.
+const MAX_INPUTS: usize = 64;
+
 /// A `source` of a mesh: its numbers and accessor stride.
 pub(super) struct Source {
     values: Vec<f32>,
@@ -15,9 +19,11 @@ pub(super) struct Source {
 }
 
 impl<'a, 'input> Loader<'a, 'input> {
+    /// Loads `mesh` as instanced by `node` (whose transform is `world`).
     pub(super) fn load_mesh(
         &mut self,
         mesh: Node<'a, 'input>,
+        node: Node<'a, 'input>,
         world: Mat4,
         bindings: &[(String, u32)],
     ) -> Result<()> {
@@ -49,7 +55,7 @@ impl<'a, 'input> Loader<'a, 'input> {
             let name = prim.tag_name().name();
             match name {
                 "source" | "vertices" | "extra" => {}
-                "polylist" | "triangles" => self.load_polygons(prim, &sources, &vertices, world, bindings)?,
+                "polylist" | "triangles" => self.load_polygons(prim, node, &sources, &vertices, world, bindings)?,
                 other => {
                     return Err(self.error(prim, format!("unsupported mesh primitive <{other}> (the dialect has polylist and triangles)")))
                 }
@@ -81,7 +87,7 @@ impl<'a, 'input> Loader<'a, 'input> {
                 .trim()
                 .parse()
                 .map_err(|_| self.error(accessor, format!("count \"{c}\" is not a number")))?;
-            if c * stride > values.len() {
+            if c.checked_mul(stride).is_none_or(|n| n > values.len()) {
                 return Err(self.error(
                     accessor,
                     format!(
@@ -106,6 +112,7 @@ impl<'a, 'input> Loader<'a, 'input> {
     pub(super) fn load_polygons(
         &mut self,
         prim: Node<'a, 'input>,
+        node: Node<'a, 'input>,
         sources: &HashMap<&str, Source>,
         vertices: &HashMap<&str, &str>,
         world: Mat4,
@@ -124,6 +131,12 @@ impl<'a, 'input> Loader<'a, 'input> {
                     .map_err(|_| self.error(input, format!("offset=\"{o}\" is not a number")))?,
                 None => return Err(self.error(input, "missing attribute 'offset'")),
             };
+            if offset >= MAX_INPUTS {
+                return Err(self.error(
+                    input,
+                    format!("offset {offset}: an index layout has at most {MAX_INPUTS} inputs"),
+                ));
+            }
             stride = stride.max(offset + 1);
             let src = input.attribute("source").unwrap_or("");
             let id = src.strip_prefix('#').ok_or_else(|| {
@@ -159,7 +172,9 @@ impl<'a, 'input> Loader<'a, 'input> {
         let count = self.count_attr(prim)?;
         let p_el = child(prim, "p").ok_or_else(|| self.error(prim, "no <p> indices"))?;
         let indices = self.integers(p_el)?;
-        let vcount: Vec<u32> = if prim.tag_name().name() == "polylist" {
+        // Polygon sizes: listed for a polylist, all 3 for triangles (never
+        // allocated from the file's count).
+        let listed: Option<Vec<u32>> = if prim.tag_name().name() == "polylist" {
             let vc = child(prim, "vcount").ok_or_else(|| self.error(prim, "no <vcount>"))?;
             let v = self.integers(vc)?;
             if v.len() != count {
@@ -171,21 +186,29 @@ impl<'a, 'input> Loader<'a, 'input> {
             if let Some(bad) = v.iter().find(|&&n| n < 3) {
                 return Err(self.error(vc, format!("a polygon with {bad} corners")));
             }
-            v
+            Some(v)
         } else {
-            vec![3; count]
+            None
         };
-        let corners: usize = vcount.iter().map(|&n| n as usize).sum();
-        if corners * stride != indices.len() {
+        let corners = match &listed {
+            Some(v) => v.iter().try_fold(0usize, |acc, &n| acc.checked_add(n as usize)),
+            None => count.checked_mul(3),
+        };
+        let expected = corners.and_then(|c| c.checked_mul(stride));
+        if expected != Some(indices.len()) {
             return Err(self.error(
                 p_el,
                 format!(
-                    "{} indices, but {corners} corners x {stride} inputs = {} expected",
+                    "{} indices, but count=\"{count}\" polygons x {stride} inputs need {}",
                     indices.len(),
-                    corners * stride
+                    expected.map_or("more than can be counted".into(), |n| n.to_string())
                 ),
             ));
         }
+        let sizes: Box<dyn Iterator<Item = u32>> = match listed {
+            Some(v) => Box::new(v.into_iter()),
+            None => Box::new(std::iter::repeat_n(3, count)),
+        };
         for (k, &index) in indices.iter().enumerate() {
             let offset = k % stride;
             for &(o, len, input) in &ranges {
@@ -209,22 +232,30 @@ impl<'a, 'input> Loader<'a, 'input> {
 
         // Each instance gets its own vertices, transformed to world space;
         // polygons are triangulated as fans.
-        let base = self.builder.vertices(
-            positions
-                .values
-                .chunks_exact(positions.stride)
-                .map(|v| world.transform_point3(Vec3::new(v[0], v[1], v[2]))),
-        );
+        let world_positions: Vec<Vec3> = positions
+            .values
+            .chunks_exact(positions.stride)
+            .map(|v| world.transform_point3(Vec3::new(v[0], v[1], v[2])))
+            .collect();
+        if let Some(bad) = world_positions.iter().position(|p| !p.is_finite()) {
+            return Err(self.error(
+                node,
+                format!("the node's transform takes vertex {bad} of <{}> beyond the floating-point range", prim.tag_name().name()),
+            ));
+        }
+        let base = self.builder.vertices(world_positions);
         let mut cursor = 0usize;
-        for &n in &vcount {
+        let mut polygons = 0;
+        for n in sizes {
             let corner = |c: usize| base + indices[(cursor + c) * stride + vertex_offset];
             for c in 1..(n as usize - 1) {
                 self.builder
                     .face([corner(0), corner(c), corner(c + 1)], material);
             }
             cursor += n as usize;
+            polygons += 1;
         }
-        self.builder.polygons(vcount.len());
+        self.builder.polygons(polygons);
         Ok(())
     }
 }

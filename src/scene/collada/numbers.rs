@@ -6,9 +6,12 @@ use roxmltree::Node;
 use super::{Loader, Result};
 
 impl<'a, 'input> Loader<'a, 'input> {
+    /// The numbers of `node`'s text; `expected` (from the file, so never
+    /// trusted to size memory) must match their count.
     pub(super) fn floats(&self, node: Node, expected: Option<usize>) -> Result<Vec<f32>> {
         let text = node.text().unwrap_or("");
-        let mut out = Vec::with_capacity(expected.unwrap_or(0));
+        // A number takes at least two characters with its separator.
+        let mut out = Vec::with_capacity(expected.unwrap_or(0).min(text.len() / 2 + 1));
         for token in text.split_ascii_whitespace() {
             let v: f32 = token
                 .parse()

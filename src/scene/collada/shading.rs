@@ -5,7 +5,7 @@ use glam::{Mat4, Vec3};
 use roxmltree::Node;
 
 use super::{cgl_technique, child, elements, Loader, Result};
-use crate::scene::{AreaLight, CameraSpec, Light, Material};
+use crate::scene::{unit, AreaLight, CameraSpec, Light, Material};
 
 impl<'a, 'input> Loader<'a, 'input> {
     /// Index of the material that `material` (a `<material>` element) names,
@@ -85,7 +85,9 @@ impl<'a, 'input> Loader<'a, 'input> {
         }
     }
 
-    pub(super) fn load_light(&mut self, light: Node, world: Mat4) -> Result<()> {
+    /// Loads `light` as placed by `node` (whose transform is `world`);
+    /// problems of the placement are reported at the node.
+    pub(super) fn load_light(&mut self, light: Node, node: Node, world: Mat4) -> Result<()> {
         if light.tag_name().name() != "light" {
             return Err(self.error(light, "url does not name a <light>"));
         }
@@ -101,12 +103,23 @@ impl<'a, 'input> Loader<'a, 'input> {
         let light = match kind.tag_name().name() {
             "area" => {
                 let c = at(Vec3::ZERO);
-                let normal = (at(Vec3::new(0.0, 0.0, -1.0)) - c).normalize_or_zero();
+                let normal = unit(at(Vec3::new(0.0, 0.0, -1.0)) - c);
                 let dim_y = at(Vec3::Y) - c;
                 let dim_x = at(Vec3::new(-1.0, 0.0, 0.0)) - c;
-                let area = dim_x.length() * dim_y.length();
-                if normal == Vec3::ZERO || area == 0.0 {
-                    return Err(self.error(kind, "area light has a degenerate transform"));
+                // In double: for huge scenes (scaled into range at the end)
+                // the product of two edge lengths overflows f32.
+                let area = dim_x.as_dvec3().length() * dim_y.as_dvec3().length();
+                if normal == Vec3::ZERO
+                    || !(area > 0.0)
+                    || !(c.is_finite() && dim_x.is_finite() && dim_y.is_finite())
+                {
+                    return Err(self.error(
+                        node,
+                        format!(
+                            "the node's transform gives area light '{}' no area or direction (a singular or non-finite matrix)",
+                            light.attribute("id").unwrap_or("?")
+                        ),
+                    ));
                 }
                 Light::Area(AreaLight {
                     origin: c - dim_x * 0.5 - dim_y * 0.5,
@@ -115,17 +128,26 @@ impl<'a, 'input> Loader<'a, 'input> {
                     triangle: false,
                     normal,
                     radiance: color,
-                    area,
+                    area: area as f32,
                 })
             }
-            "point" => Light::Point {
-                position: at(Vec3::ZERO),
-                intensity: color,
-            },
+            "point" => {
+                let position = at(Vec3::ZERO);
+                if !position.is_finite() {
+                    return Err(self.error(node, "the node's transform puts the point light beyond the floating-point range"));
+                }
+                Light::Point {
+                    position,
+                    intensity: color,
+                }
+            }
             "directional" => {
-                let to_light = at(Vec3::new(0.0, 0.0, -1.0)).normalize_or_zero();
-                if to_light == Vec3::ZERO {
-                    return Err(self.error(kind, "directional light has no direction"));
+                let to_light = unit(at(Vec3::new(0.0, 0.0, -1.0)));
+                if to_light == Vec3::ZERO || !to_light.is_finite() {
+                    return Err(self.error(
+                        node,
+                        "the node's transform gives the directional light no direction",
+                    ));
                 }
                 Light::Directional {
                     to_light,
@@ -166,6 +188,12 @@ impl<'a, 'input> Loader<'a, 'input> {
         let (xfov, yfov, aspect) = (get("xfov")?, get("yfov")?, get("aspect_ratio")?);
         let half = |deg: f32| (deg.to_radians() * 0.5).tan();
         let full = |t: f32| (2.0 * t.atan()).to_degrees();
+        if let Some(a) = aspect {
+            if !(a > 0.0) {
+                let el = child(persp, "aspect_ratio").unwrap_or(persp);
+                return Err(self.error(el, format!("aspect_ratio {a} is not positive")));
+            }
+        }
         let (x, y) = match (xfov, yfov, aspect) {
             (Some(x), Some(y), _) => (x, y),
             (Some(x), None, Some(a)) => (x, full(half(x) / a)),
@@ -181,6 +209,9 @@ impl<'a, 'input> Loader<'a, 'input> {
                     format!("{name} {v} is not between 0 and 180 degrees"),
                 ));
             }
+        }
+        if !world.is_finite() {
+            return Err(self.error(camera, "the camera node's transform is not finite"));
         }
         Ok(CameraSpec {
             transform: world,
