@@ -20,6 +20,7 @@ mod report;
 use std::path::{Path, PathBuf};
 
 use clap::builder::{PossibleValuesParser, TypedValueParser};
+use clap::error::ErrorKind;
 use clap::{Parser, Subcommand};
 
 use crate::choice::Choice;
@@ -51,14 +52,35 @@ pub enum Command {
     Report(report::ReportArgs),
 }
 
+/// On SIGINT, SIGTERM or SIGHUP: remove the temporary files of any write
+/// in progress and exit with 128 + the signal's number, as the shell would
+/// report a process the signal killed.
+fn clean_up_on_signals() {
+    use signal_hook::consts::{SIGHUP, SIGINT, SIGTERM};
+    let Ok(mut signals) = signal_hook::iterator::Signals::new([SIGINT, SIGTERM, SIGHUP]) else {
+        return;
+    };
+    std::thread::spawn(move || {
+        if let Some(signal) = signals.forever().next() {
+            crate::render::film::abandon_writes();
+            std::process::exit(128 + signal);
+        }
+    });
+}
+
 /// Runs the program; returns the exit code.
 pub fn main() -> i32 {
+    clean_up_on_signals();
     let cli = match Cli::try_parse() {
         Ok(cli) => cli,
-        Err(e) => {
-            let code = if e.use_stderr() { 2 } else { 0 };
+        // Help and version as clap prints them; `hybrid` alone shows help.
+        Err(e) if !e.use_stderr() || e.kind() == ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand => {
             let _ = e.print();
-            return code;
+            return if e.use_stderr() { 2 } else { 0 };
+        }
+        Err(e) => {
+            eprintln!("hybrid: error: {}", one_line(&e.render().to_string()));
+            return 2;
         }
     };
     let outcome = match cli.command {
@@ -73,6 +95,25 @@ pub fn main() -> i32 {
             eprintln!("hybrid: error: {message}");
             2
         }
+    }
+}
+
+/// clap's error text (message, tips, possible values, usage) as one line:
+/// the message with its tips and possible values in parentheses.
+fn one_line(text: &str) -> String {
+    let mut lines = text.lines().map(str::trim).filter(|l| !l.is_empty());
+    let message = lines.next().unwrap_or("bad command line");
+    let message = message.strip_prefix("error: ").unwrap_or(message);
+    let hints: Vec<&str> = lines
+        .filter_map(|l| {
+            l.strip_prefix("tip: ")
+                .or_else(|| l.strip_prefix('[').and_then(|l| l.strip_suffix(']')))
+        })
+        .collect();
+    if hints.is_empty() {
+        format!("{message} (see --help)")
+    } else {
+        format!("{message} ({}; see --help)", hints.join("; "))
     }
 }
 

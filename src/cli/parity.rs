@@ -32,7 +32,10 @@ pub fn run(args: &ParityArgs) -> Result<bool, String> {
     let scene = args.input.load(NormalMode::Smooth)?;
     if args.hard {
         let scanned = args.input.scene.as_ref().map(|_| &scene);
-        let cases = hard::cases(args.rays, args.seed, scanned);
+        let (cases, notes) = hard::cases(args.rays, args.seed, scanned);
+        for note in notes {
+            say!("note: {note}");
+        }
         let reports = hard::run_all(&cases).map_err(|e| e.to_string())?;
         say!(
             "hard cases, {} rays each (failures / rays per backend and mode)\n",

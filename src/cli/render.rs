@@ -14,7 +14,7 @@ use crate::accel::native::NativeOptions;
 use crate::accel::{Accel, BackendConfig};
 use crate::choice::Choice;
 use crate::render::camera::CameraMode;
-use crate::render::film::{rate_path, ToneMap};
+use crate::render::film::{check_writable, rate_path, write_files, ToneMap};
 use crate::render::integrator::{BounceView, DirectEstimator, PathSettings, Shading};
 use crate::render::{render, Adaptive, Cell, Progress, RenderSettings};
 use crate::scene::NormalMode;
@@ -26,6 +26,14 @@ pub enum AccelArg {
     Embree,
     None,
 }
+
+/// More worker threads than this only cost memory and start-up time.
+pub const MAX_THREADS: usize = 256;
+
+/// The most pixels one run renders (8192 x 8192): the film costs
+/// [`FILM_BYTES_PER_PIXEL`] each, and writing it a few more.
+pub const MAX_PIXELS: u64 = 1 << 26;
+const FILM_BYTES_PER_PIXEL: u64 = 16;
 
 #[derive(Args, Debug, Clone)]
 pub struct RenderArgs {
@@ -58,7 +66,7 @@ pub struct RenderArgs {
     /// Output image: .png (tone-mapped) or .exr (raw radiance).
     #[arg(short = 'f')]
     pub output: Option<PathBuf>,
-    /// Render one cell of the image only.
+    /// Render one cell of the image only; the output holds just the cell.
     #[arg(short = 'p', num_args = 4, value_names = ["X", "Y", "DX", "DY"])]
     pub cell: Option<Vec<u32>>,
     /// Direct lighting by uniform hemisphere sampling (default: light sampling).
@@ -116,6 +124,12 @@ impl RenderArgs {
         if width > 1 << 15 || height > 1 << 15 {
             return Err(format!(
                 "-r {width} {height}: the resolution is larger than 32768"
+            ));
+        }
+        if self.threads > MAX_THREADS {
+            return Err(format!(
+                "-t {}: at most {MAX_THREADS} threads (0 means one per core)",
+                self.threads
             ));
         }
         if self.samples == 0 {
@@ -178,6 +192,13 @@ impl RenderArgs {
             }
             None => None,
         };
+        let (w, h) = cell.map_or((width, height), |c| (c.width, c.height));
+        if u64::from(w) * u64::from(h) > MAX_PIXELS {
+            return Err(format!(
+                "{w} x {h} pixels to render: at most {MAX_PIXELS} ({} MiB of film) per run; split the frame with -p",
+                MAX_PIXELS * FILM_BYTES_PER_PIXEL >> 20
+            ));
+        }
         let shading = if self.normals {
             Shading::Normals
         } else {
@@ -266,6 +287,11 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
             ))
         }
     }
+    // A missing or read-only folder fails now, not after the render.
+    check_writable(&output).map_err(|e| e.to_string())?;
+    if settings.adaptive.is_some() {
+        check_writable(&rate_path(&output)).map_err(|e| e.to_string())?;
+    }
     let normal_mode = if args.flat {
         NormalMode::Flat
     } else {
@@ -329,12 +355,17 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
     } else {
         ToneMap::Reference
     };
-    result.film.write(&output, map).map_err(|e| e.to_string())?;
+    let image = result.film.file(&output, map).map_err(|e| e.to_string())?;
     let c = result.counters;
+    let frame = match settings.cell {
+        Some(cell) => format!(
+            "the {}x{} cell at ({}, {}) of {}x{}",
+            cell.width, cell.height, cell.x, cell.y, settings.width, settings.height
+        ),
+        None => format!("{}x{}", settings.width, settings.height),
+    };
     let mut line = format!(
-        "rendered {}x{} at {} spp in {:.2} s: {} rays, {:.2} Mrays/s",
-        settings.width,
-        settings.height,
+        "rendered {frame} at {} spp in {:.2} s: {} rays, {:.2} Mrays/s",
         settings.samples,
         result.seconds,
         c.rays,
@@ -348,17 +379,19 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
         );
     }
     say!("{line}");
+    // The image and its sample-rate companion are written together or
+    // not at all.
     if settings.adaptive.is_some() {
         let rate = rate_path(&output);
-        result
-            .film
-            .write_rate(&rate, settings.samples)
-            .map_err(|e| e.to_string())?;
+        let rate_image = result.film.rate_file(settings.samples);
+        write_files(&[(&output, image), (&rate, rate_image)]).map_err(|e| e.to_string())?;
         say!(
             "adaptive sampling: {:.1} samples per pixel on average; rate image {}",
             result.mean_samples(),
             rate.display()
         );
+    } else {
+        write_files(&[(&output, image)]).map_err(|e| e.to_string())?;
     }
     say!("wrote {}", output.display());
     Ok(())

@@ -3,7 +3,10 @@
 //! Files are written under a temporary name and renamed, so a failed run
 //! never leaves a half image under the requested name.
 
+use std::fs::File;
+use std::io::{BufWriter, Seek, Write};
 use std::path::{Path, PathBuf};
+use std::sync::{Mutex, MutexGuard};
 
 use glam::Vec3;
 
@@ -36,7 +39,7 @@ pub enum FilmError {
 
 impl Film {
     pub fn new(width: u32, height: u32) -> Film {
-        let n = (width * height) as usize;
+        let n = width as usize * height as usize;
         Film {
             width,
             height,
@@ -61,60 +64,89 @@ impl Film {
             .collect()
     }
 
-    /// Writes PNG (tone-mapped) or EXR (raw radiance) by the extension.
-    pub fn write(&self, path: &Path, map: ToneMap) -> Result<(), FilmError> {
+    /// The image file for `path`: PNG (tone-mapped) or EXR (raw radiance)
+    /// by the extension.
+    pub fn file(&self, path: &Path, map: ToneMap) -> Result<ImageFile<'_>, FilmError> {
         let ext = path
             .extension()
             .and_then(|e| e.to_str())
             .map(|e| e.to_ascii_lowercase());
-        match ext.as_deref() {
-            Some("png") => write_atomically(path, |tmp| {
-                image::save_buffer_with_format(
-                    tmp,
-                    &self.to_rgb8(map),
-                    self.width,
-                    self.height,
-                    image::ColorType::Rgb8,
-                    image::ImageFormat::Png,
-                )
-            }),
-            Some("exr") => {
-                let data: Vec<f32> = self.pixels.iter().flat_map(|p| [p.x, p.y, p.z]).collect();
-                write_atomically(path, |tmp| {
-                    let img = image::Rgb32FImage::from_raw(self.width, self.height, data.clone())
-                        .ok_or_else(|| {
-                        image::ImageError::Parameter(image::error::ParameterError::from_kind(
-                            image::error::ParameterErrorKind::DimensionMismatch,
-                        ))
-                    })?;
-                    img.save_with_format(tmp, image::ImageFormat::OpenExr)
+        let format = match ext.as_deref() {
+            Some("png") => image::ImageFormat::Png,
+            Some("exr") => image::ImageFormat::OpenExr,
+            _ => {
+                return Err(FilmError::Format {
+                    path: path.display().to_string(),
                 })
             }
-            _ => Err(FilmError::Format {
-                path: path.display().to_string(),
-            }),
-        }
-    }
-
-    /// The sample-rate image of adaptive sampling: rate = samples / cap,
-    /// blue (0) -> green (0.5) -> red (1).
-    pub fn write_rate(&self, path: &Path, cap: u32) -> Result<(), FilmError> {
-        let bytes: Vec<u8> = self
-            .samples
-            .iter()
-            .flat_map(|&n| rate_colour(n as f32 / cap.max(1) as f32))
-            .collect();
-        write_atomically(path, |tmp| {
-            image::save_buffer_with_format(
-                tmp,
-                &bytes,
-                self.width,
-                self.height,
-                image::ColorType::Rgb8,
-                image::ImageFormat::Png,
-            )
+        };
+        Ok(ImageFile::Radiance {
+            film: self,
+            map,
+            format,
         })
     }
+
+    /// Writes the image to `path` (see [`Film::file`] and [`write_files`]).
+    pub fn write(&self, path: &Path, map: ToneMap) -> Result<(), FilmError> {
+        write_files(&[(path, self.file(path, map)?)])
+    }
+
+    /// The sample-rate image of adaptive sampling (PNG): rate = samples /
+    /// cap, blue (0) -> green (0.5) -> red (1).
+    pub fn rate_file(&self, cap: u32) -> ImageFile<'_> {
+        ImageFile::Rate { film: self, cap }
+    }
+}
+
+/// An image to be written from a film.
+pub enum ImageFile<'a> {
+    /// The radiance: PNG through a tone map, or EXR as it is.
+    Radiance {
+        film: &'a Film,
+        map: ToneMap,
+        format: image::ImageFormat,
+    },
+    /// The adaptive sampling rate.
+    Rate { film: &'a Film, cap: u32 },
+}
+
+impl ImageFile<'_> {
+    /// Encodes the image into `out`.
+    pub fn write_to<W: Write + Seek>(&self, out: &mut W) -> image::ImageResult<()> {
+        match *self {
+            ImageFile::Radiance {
+                film,
+                format: image::ImageFormat::OpenExr,
+                ..
+            } => {
+                let data: Vec<f32> = film.pixels.iter().flat_map(|p| [p.x, p.y, p.z]).collect();
+                image::Rgb32FImage::from_raw(film.width, film.height, data)
+                    .expect("one RGB triple per pixel")
+                    .write_to(out, image::ImageFormat::OpenExr)
+            }
+            ImageFile::Radiance { film, map, .. } => png(out, film, &film.to_rgb8(map)),
+            ImageFile::Rate { film, cap } => {
+                let rgb: Vec<u8> = film
+                    .samples
+                    .iter()
+                    .flat_map(|&n| rate_colour(n as f32 / cap.max(1) as f32))
+                    .collect();
+                png(out, film, &rgb)
+            }
+        }
+    }
+}
+
+fn png<W: Write + Seek>(out: &mut W, film: &Film, rgb: &[u8]) -> image::ImageResult<()> {
+    image::write_buffer_with_format(
+        out,
+        rgb,
+        film.width,
+        film.height,
+        image::ColorType::Rgb8,
+        image::ImageFormat::Png,
+    )
 }
 
 /// Blue -> green -> red by rate in [0, 1].
@@ -134,22 +166,106 @@ pub fn rate_path(output: &Path) -> PathBuf {
     output.with_file_name(format!("{stem}_rate.png"))
 }
 
-fn write_atomically(
-    path: &Path,
-    write: impl FnOnce(&Path) -> image::ImageResult<()>,
-) -> Result<(), FilmError> {
+/// Temporary files being written, so a signal handler can remove them
+/// ([`abandon_writes`]); once `closing`, no new one is created.
+struct InFlight {
+    paths: Vec<PathBuf>,
+    closing: bool,
+}
+
+static IN_FLIGHT: Mutex<InFlight> = Mutex::new(InFlight {
+    paths: Vec::new(),
+    closing: false,
+});
+
+fn in_flight() -> MutexGuard<'static, InFlight> {
+    IN_FLIGHT.lock().unwrap_or_else(|e| e.into_inner())
+}
+
+/// The temporary name `path` is written under: hidden, beside it, unique
+/// to this process.
+fn temporary(path: &Path) -> PathBuf {
     let name = path.file_name().and_then(|n| n.to_str()).unwrap_or("image");
-    let tmp = path.with_file_name(format!(".{name}.partial-{}", std::process::id()));
+    path.with_file_name(format!(".{name}.partial-{}", std::process::id()))
+}
+
+/// Writes every file or none: each is encoded straight into a temporary
+/// name, and only when all are complete are they renamed into place. A
+/// failure removes what this call wrote, so no half image (and no image
+/// without its companion) is left under a requested name; a signal during
+/// the write removes the temporary files ([`abandon_writes`]).
+pub fn write_files(files: &[(&Path, ImageFile)]) -> Result<(), FilmError> {
+    let fail = |path: &Path, message: String| FilmError::Write {
+        path: path.display().to_string(),
+        message,
+    };
+    let mut written: Vec<PathBuf> = Vec::new();
+    let result = (|| {
+        for (path, image) in files {
+            let tmp = temporary(path);
+            let file = {
+                // Created under the lock: a signal handler either sees the
+                // file registered or stops it being made.
+                let mut f = in_flight();
+                if f.closing {
+                    return Err(fail(path, "interrupted".into()));
+                }
+                let file = File::create(&tmp).map_err(|e| fail(path, e.to_string()))?;
+                f.paths.push(tmp.clone());
+                file
+            };
+            written.push(tmp);
+            let mut out = BufWriter::new(file);
+            image.write_to(&mut out).map_err(|e| fail(path, e.to_string()))?;
+            out.flush().map_err(|e| fail(path, e.to_string()))?;
+        }
+        Ok(())
+    })();
+    let result = result.and_then(|()| {
+        for (k, ((path, _), tmp)) in files.iter().zip(&written).enumerate() {
+            if let Err(e) = std::fs::rename(tmp, path) {
+                for (done, _) in &files[..k] {
+                    let _ = std::fs::remove_file(done);
+                }
+                return Err(fail(path, e.to_string()));
+            }
+        }
+        Ok(())
+    });
+    let mut f = in_flight();
+    for tmp in &written {
+        if result.is_err() {
+            let _ = std::fs::remove_file(tmp);
+        }
+        f.paths.retain(|p| p != tmp);
+    }
+    result
+}
+
+/// Checks, before any work, that `path` can be written: its folder exists
+/// and takes a new file (the temporary name is created and removed).
+pub fn check_writable(path: &Path) -> Result<(), FilmError> {
     let fail = |message: String| FilmError::Write {
         path: path.display().to_string(),
         message,
     };
-    if let Err(e) = write(&tmp) {
-        let _ = std::fs::remove_file(&tmp);
-        return Err(fail(e.to_string()));
+    if path.is_dir() {
+        return Err(fail("is a directory".into()));
     }
-    std::fs::rename(&tmp, path).map_err(|e| {
-        let _ = std::fs::remove_file(&tmp);
-        fail(e.to_string())
-    })
+    let tmp = temporary(path);
+    File::create(&tmp).map_err(|e| fail(e.to_string()))?;
+    let _ = std::fs::remove_file(&tmp);
+    Ok(())
+}
+
+/// Removes every temporary file being written and stops new ones: for a
+/// signal handler that is about to exit. Returns with the registry
+/// locked for good, so no writer creates a file after the cleanup.
+pub fn abandon_writes() {
+    let mut f = in_flight();
+    f.closing = true;
+    for tmp in f.paths.drain(..) {
+        let _ = std::fs::remove_file(tmp);
+    }
+    std::mem::forget(f);
 }

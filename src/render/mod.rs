@@ -57,7 +57,7 @@ pub struct RenderSettings {
     pub camera: CameraMode,
     pub shading: Shading,
     pub adaptive: Option<Adaptive>,
-    /// Render only this cell (the rest of the image stays black).
+    /// Render only this cell: the film then holds just the cell's pixels.
     pub cell: Option<Cell>,
 }
 
@@ -141,25 +141,23 @@ fn render_rows<A: Accel>(
         width: w,
         height: h,
     });
-    let x_end = (cell.x + cell.width).min(w);
-    let y_end = (cell.y + cell.height).min(h);
-    let mut film = Film::new(w, h);
+    // Only the cell's pixels are allocated: one pixel of a 32768^2 frame
+    // costs one pixel.
+    let mut film = Film::new(cell.width, cell.height);
     let totals: TraceCounters = film
         .pixels
-        .par_chunks_mut(w as usize)
-        .zip(film.samples.par_chunks_mut(w as usize))
+        .par_chunks_mut(cell.width as usize)
+        .zip(film.samples.par_chunks_mut(cell.width as usize))
         .enumerate()
-        .map(|(y, (row, counts))| {
-            let y = y as u32;
+        .map(|(row_index, (row, counts))| {
+            let y = cell.y + row_index as u32;
             let mut counters = TraceCounters::default();
-            if y >= cell.y && y < y_end {
-                for x in cell.x..x_end {
-                    let (value, n) = pixel(&integrator, &camera, settings, x, y, &mut counters);
-                    row[x as usize] = value;
-                    counts[x as usize] = n;
-                }
-                progress.row_done();
+            for (i, x) in (cell.x..cell.x + cell.width).enumerate() {
+                let (value, n) = pixel(&integrator, &camera, settings, x, y, &mut counters);
+                row[i] = value;
+                counts[i] = n;
             }
+            progress.row_done();
             counters
         })
         .reduce(TraceCounters::default, |mut a, b| {

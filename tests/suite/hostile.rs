@@ -347,3 +347,125 @@ fn oddities_load_with_one_warning_each() {
     });
     render(&short, &["matrix15.dae:", "<matrix>", "15 numbers"]);
 }
+
+/// Class 5: only the cell's pixels are allocated, and a frame too large
+/// for one run is refused before anything is loaded or rendered.
+#[test]
+fn huge_resolutions_cost_only_their_cell() {
+    let dir = common::scratch("hostile-resolution");
+    let args = ["render", "-r", "32768", "32768", "-p", "100", "200", "3", "2", "-f", "cell.png"];
+    renders(&dir, &args, "cell.png", &[]);
+    assert_eq!(pixels(&dir.join("cell.png")).len(), 6, "the output holds the 3 x 2 cell");
+    fails(&dir, &["render", "-r", "32768", "32768", "-f", "o.png"], &["32768 x 32768", "-p"]);
+}
+
+/// Class 6: the hard cases on a mesh without shared edges leave its edge
+/// case out with a note instead of dividing by zero.
+#[test]
+fn hard_parity_on_a_mesh_without_shared_edges() {
+    let dir = common::scratch("hostile-parity");
+    let balls = scene(&dir, "balls.dae", |t| {
+        t.replacen("<instance_geometry url=\"#quad\"/>", "", 1).replacen(
+            "<extra><technique profile=\"CGL\"><area><color>4 4 4</color></area></technique></extra>",
+            "",
+            1,
+        )
+    });
+    let o = run(&dir, &["parity", "--hard", "--rays", "100", &balls]);
+    assert!(matches!(o.code, Some(0 | 1)), "{}", o.describe());
+    assert!(o.stdout.contains("note: ") && o.stdout.contains("share an edge"), "{}", o.describe());
+    assert!(!o.stderr.contains("panicked"), "{}", o.describe());
+}
+
+/// Classes 7, 10 and 11: bad command lines are one error line before any
+/// work: thread counts past the cap, an output folder that is missing or a
+/// directory, and everything clap rejects.
+#[test]
+fn bad_command_lines_fail_at_once_in_one_line() {
+    let dir = common::scratch("hostile-cli");
+    std::fs::create_dir(dir.join("folder.png")).unwrap();
+    let cases: &[(&[&str], &[&str])] = &[
+        (&["render", "-t", "2000"], &["-t 2000", "at most"]),
+        (&["render", "-s", "100000", "-f", "missing/o.png"], &["missing/o.png"]),
+        (&["render", "-s", "100000", "-f", "folder.png"], &["folder.png", "directory"]),
+        (&["render", "--bogus"], &["--bogus", "--help"]),
+        (&["render", "-r", "5"], &["-r <W> <H>"]),
+        (&["render", "--accel", "optix"], &["optix", "native, embree"]),
+        (&["render", "-s", "many"], &["many", "-s"]),
+        (&["frobnicate"], &["frobnicate"]),
+    ];
+    for (args, needles) in cases {
+        fails(&dir, args, needles);
+        let o = run(&dir, args);
+        assert!(o.stdout.is_empty(), "{args:?} did work before failing: {}", o.describe());
+    }
+    let help = run(&dir, &["render", "--help"]);
+    assert_eq!(help.code, Some(0));
+    assert!(help.stdout.lines().count() > 10, "help is still the full help");
+}
+
+/// Class 8: with adaptive sampling the image and its sample-rate image are
+/// written together or not at all.
+#[test]
+fn adaptive_writes_both_images_or_neither() {
+    let dir = common::scratch("hostile-adaptive");
+    let args = ["render", "-r", "16", "12", "-s", "8", "-a", "4", "0.1", "-f", "o.png"];
+    renders(&dir, &args, "o.png", &[]);
+    assert!(dir.join("o_rate.png").is_file());
+    std::fs::remove_file(dir.join("o.png")).unwrap();
+    std::fs::remove_file(dir.join("o_rate.png")).unwrap();
+    // The rate image cannot be written (a folder has its name): neither is.
+    std::fs::create_dir(dir.join("o_rate.png")).unwrap();
+    fails(&dir, &args, &["o_rate.png"]);
+}
+
+/// Class 9: a SIGTERM while the image is being written removes the
+/// temporary file; the process exits as killed by the signal (128 + 15).
+#[test]
+fn a_signal_during_the_write_leaves_nothing_behind() {
+    let dir = common::scratch("hostile-signal");
+    let partial = |dir: &Path| {
+        files(dir).into_iter().find(|p| {
+            p.to_string_lossy().contains(".partial-")
+                && std::fs::metadata(p).is_ok_and(|m| m.len() > 0)
+        })
+    };
+    // A big PNG takes long enough to encode to be caught mid-write; a run
+    // that finishes first is tried again.
+    for attempt in 0..5 {
+        let mut child = Command::new(env!("CARGO_BIN_EXE_hybrid"))
+            .args(["render", "--normals", "-r", "3000", "3000", "-f", "big.png"])
+            .current_dir(&dir)
+            .stdout(Stdio::null())
+            .stderr(Stdio::null())
+            .spawn()
+            .expect("run hybrid");
+        let start = Instant::now();
+        let caught = loop {
+            if partial(&dir).is_some() {
+                break true;
+            }
+            if child.try_wait().unwrap().is_some() || start.elapsed() > TIME_LIMIT {
+                break false;
+            }
+            std::thread::sleep(Duration::from_millis(1));
+        };
+        if !caught {
+            let _ = child.kill();
+            let _ = child.wait();
+            let _ = std::fs::remove_file(dir.join("big.png"));
+            eprintln!("attempt {attempt}: the write finished before it was caught");
+            continue;
+        }
+        let pid = child.id() as libc::pid_t;
+        // SAFETY: kill(2) on our own child's pid has no memory effects.
+        assert_eq!(unsafe { libc::kill(pid, libc::SIGTERM) }, 0);
+        let status = child.wait().unwrap();
+        assert_eq!(status.code(), Some(128 + libc::SIGTERM), "{status:?}");
+        assert_eq!(partial(&dir), None, "the temporary file is left behind");
+        let left: Vec<_> = files(&dir).into_iter().collect();
+        assert!(left.is_empty(), "left behind: {left:?}");
+        return;
+    }
+    panic!("five renders finished their write before it could be interrupted");
+}

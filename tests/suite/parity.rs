@@ -44,7 +44,7 @@ fn every_backend_agrees_on_the_cornell_boxes_and_the_bunny() {
 #[test]
 fn hard_cases_hold_the_design_promises() {
     let scanned = crate::common::load("sky/bunny.dae");
-    let cases = hard::cases(2_000, 3, scanned.as_ref());
+    let (cases, _) = hard::cases(2_000, 3, scanned.as_ref());
     let reports = hard::run_all(&cases).expect("backends build");
     println!("{}", hard::format_table(&reports));
     let mut mt_leaks = 0;

@@ -41,7 +41,8 @@ fn shared_edges(tris: &[[u32; 3]]) -> Vec<(u32, u32, u32, u32)> {
 /// From outside, a ray aimed at a silhouette edge only touches the surface,
 /// which is ill-posed; so only edges whose two triangles both face the
 /// origin are aimed at, and the first hit must come no later than the
-/// aimed point (`Expect::HitBy`).
+/// aimed point (`Expect::HitBy`). None when the mesh has no shared edge
+/// (spheres only, unwelded triangles) or none faces the origins.
 fn aimed_rays(
     name: &str,
     inside: bool,
@@ -50,8 +51,11 @@ fn aimed_rays(
     tris: &[[u32; 3]],
     n: usize,
     seed: u64,
-) -> Case {
+) -> Option<Case> {
     let edges = shared_edges(tris);
+    if edges.is_empty() || positions.is_empty() {
+        return None;
+    }
     let normal = |t: u32| {
         let [a, b, c] = tris[t as usize].map(|i| positions[i as usize]);
         (b - a).cross(c - a)
@@ -88,22 +92,23 @@ fn aimed_rays(
         rays.push((Ray::new(origin, dir.normalize()), expect));
         pairs.push(pair);
     }
-    Case {
+    (!rays.is_empty()).then(|| Case {
         name: name.into(),
         failure: "leaks",
         scene: mesh_scene(name, positions, tris),
         rays,
         watertight_promise: true,
         edge_pairs: pairs,
-    }
+    })
 }
 
 /// Closed meshes (icosphere, cube, and a scanned mesh when given) hit
-/// exactly at shared edges and vertices, from inside and outside.
-pub fn closed_meshes(n: usize, seed: u64, scanned: Option<&Scene>) -> Vec<Case> {
+/// exactly at shared edges and vertices, from inside and outside. A
+/// scanned mesh without shared edges gets a note instead of a case.
+pub fn closed_meshes(n: usize, seed: u64, scanned: Option<&Scene>, notes: &mut Vec<String>) -> Vec<Case> {
     let mut cases = Vec::new();
     let (sp, st) = icosphere(4);
-    cases.push(aimed_rays(
+    cases.extend(aimed_rays(
         "icosphere 5120 tris, edges+vertices from inside",
         true,
         |r| uniform_sphere(r.next_f32(), r.next_f32()) * 0.5 * r.next_f32(),
@@ -112,7 +117,7 @@ pub fn closed_meshes(n: usize, seed: u64, scanned: Option<&Scene>) -> Vec<Case> 
         n,
         seed,
     ));
-    cases.push(aimed_rays(
+    cases.extend(aimed_rays(
         "icosphere 5120 tris, front-facing edges from outside",
         false,
         |r| uniform_sphere(r.next_f32(), r.next_f32()) * 3.0,
@@ -122,7 +127,7 @@ pub fn closed_meshes(n: usize, seed: u64, scanned: Option<&Scene>) -> Vec<Case> 
         seed + 1,
     ));
     let (cp, ct) = cube(false);
-    cases.push(aimed_rays(
+    cases.extend(aimed_rays(
         "cube, edges+vertices from inside",
         true,
         |r| (Vec3::new(r.next_f32(), r.next_f32(), r.next_f32()) - 0.5) * 1.6,
@@ -131,7 +136,7 @@ pub fn closed_meshes(n: usize, seed: u64, scanned: Option<&Scene>) -> Vec<Case> 
         n,
         seed + 2,
     ));
-    cases.push(aimed_rays(
+    cases.extend(aimed_rays(
         "cube, front-facing edges from outside",
         false,
         |r| uniform_sphere(r.next_f32(), r.next_f32()) * 4.0,
@@ -143,7 +148,7 @@ pub fn closed_meshes(n: usize, seed: u64, scanned: Option<&Scene>) -> Vec<Case> 
     if let Some(scene) = scanned {
         let b = scene.bounds();
         let (c, radius) = (b.center(), b.extent().length());
-        let mut case = aimed_rays(
+        let case = aimed_rays(
             &format!(
                 "{} (scanned), front-facing shared edges from outside",
                 scene.name.rsplit('/').next().unwrap_or("scanned")
@@ -155,8 +160,16 @@ pub fn closed_meshes(n: usize, seed: u64, scanned: Option<&Scene>) -> Vec<Case> 
             n,
             seed + 4,
         );
-        case.scene = scene.clone();
-        cases.push(case);
+        match case {
+            Some(mut case) => {
+                case.scene = scene.clone();
+                cases.push(case);
+            }
+            None => notes.push(format!(
+                "{}: no triangles share an edge (spheres only, or unwelded triangles), so it adds no edge case",
+                scene.name
+            )),
+        }
     }
 
     cases
@@ -170,7 +183,7 @@ pub fn far_from_the_origin(n: usize, seed: u64) -> Vec<Case> {
     for offset in [1e3f32, 1e4, 1e5, 1e6] {
         let shift = Vec3::new(offset, -offset * 0.5, offset * 0.25);
         let moved: Vec<Vec3> = sp.iter().map(|p| *p + shift).collect();
-        let mut case = aimed_rays(
+        let Some(mut case) = aimed_rays(
             &format!("icosphere at {offset:.0e}, from inside"),
             true,
             move |r| shift + uniform_sphere(r.next_f32(), r.next_f32()) * 0.5 * r.next_f32(),
@@ -178,7 +191,9 @@ pub fn far_from_the_origin(n: usize, seed: u64) -> Vec<Case> {
             &st,
             n / 2,
             seed + 5,
-        );
+        ) else {
+            continue;
+        };
         case.watertight_promise = true;
         cases.push(case);
     }

@@ -188,10 +188,12 @@ pub fn run_all(cases: &[Case]) -> Result<Vec<CaseReport>, AccelError> {
         .collect()
 }
 
-/// The hard cases; `scanned` adds a shared scanned mesh when given.
-pub fn cases(rays_per_case: usize, seed: u64, scanned: Option<&Scene>) -> Vec<Case> {
+/// The hard cases; `scanned` adds a shared scanned mesh when given. The
+/// notes say what could not become a case, and why.
+pub fn cases(rays_per_case: usize, seed: u64, scanned: Option<&Scene>) -> (Vec<Case>, Vec<String>) {
     let n = rays_per_case.max(100);
-    let mut cases = families::closed_meshes(n, seed, scanned);
+    let mut notes = Vec::new();
+    let mut cases = families::closed_meshes(n, seed, scanned, &mut notes);
     cases.extend(families::far_from_the_origin(n, seed));
     cases.push(families::axis_aligned_rays(n, seed));
     cases.push(families::parallel_rays(n, seed));
@@ -201,5 +203,5 @@ pub fn cases(rays_per_case: usize, seed: u64, scanned: Option<&Scene>) -> Vec<Ca
     cases.extend(families::rays_leaving_a_surface(n, seed));
     cases.extend(families::spheres(n, seed));
     cases.push(families::untraceable_rays(n));
-    cases
+    (cases, notes)
 }
