@@ -14,12 +14,23 @@ pub struct Ray {
     pub t_max: f32,
 }
 
-/// Relative offset of the spawn rule: a secondary ray starts
-/// `SPAWN_EPSILON * (1 + max |p_i|)` off the surface along the geometric
-/// normal, on the side it leaves to, with `t_min = 0`. Scaling with the
-/// magnitude of `p` keeps the offset above the rounding error of the hit
-/// point (a few ulps of `|p|`) for scenes far from the origin.
-pub const SPAWN_EPSILON: f32 = 1e-5;
+/// A point that secondary rays leave: its position, a bound on the
+/// rounding error of each coordinate (so the true surface point lies in
+/// `p ± error`), and the unit geometric normal there (either side).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SpawnPoint {
+    pub p: Vec3,
+    pub error: Vec3,
+    pub ng: Vec3,
+}
+
+/// `n u / (1 - n u)` for the unit roundoff `u = 2^-24`: the relative error
+/// bound of `n` chained f32 operations (Higham; pbrt-v4's `gamma`).
+#[inline]
+pub fn gamma(n: u32) -> f32 {
+    let nu = n as f32 * (f32::EPSILON * 0.5);
+    nu / (1.0 - nu)
+}
 
 /// The largest ray origin or direction component any backend traces:
 /// Embree's documented valid range is ±1.844e18 and it aborts the process
@@ -41,29 +52,47 @@ impl Ray {
         }
     }
 
-    /// The spawn rule: a ray leaving `p` (on a surface with unit geometric
-    /// normal `ng`) in direction `dir`, reaching as far as `t_max`.
+    /// The spawn rule (pbrt-v4's offset ray origin): a ray leaving `from`
+    /// in direction `dir`, reaching as far as `t_max`. The origin moves
+    /// along the normal, to the side `dir` leaves to, just past the box of
+    /// the point's rounding error, and is then rounded one more ulp away:
+    /// it can never lie behind the surface it leaves, at any scale, and
+    /// sits as close to it as the arithmetic allows (so rays leaving a
+    /// floor at a wall's foot do not start under the wall).
     #[inline]
-    pub fn spawn(p: Vec3, ng: Vec3, dir: Vec3, t_max: f32) -> Ray {
-        let eps = SPAWN_EPSILON * (1.0 + p.abs().max_element());
-        let offset = if dir.dot(ng) >= 0.0 {
-            ng * eps
-        } else {
-            -ng * eps
+    pub fn spawn(from: &SpawnPoint, dir: Vec3, t_max: f32) -> Ray {
+        let d = from.ng.abs().dot(from.error);
+        let mut offset = from.ng * d;
+        if dir.dot(from.ng) < 0.0 {
+            offset = -offset;
+        }
+        let moved = from.p + offset;
+        let away = |x: f32, o: f32| {
+            if o > 0.0 {
+                x.next_up()
+            } else if o < 0.0 {
+                x.next_down()
+            } else {
+                x
+            }
         };
         Ray {
-            origin: p + offset,
+            origin: Vec3::new(
+                away(moved.x, offset.x),
+                away(moved.y, offset.y),
+                away(moved.z, offset.z),
+            ),
             dir,
             t_min: 0.0,
             t_max,
         }
     }
 
-    /// The shadow-ray rule: from `p` towards a light sample at `distance`
-    /// along the unit direction `wi`, stopping just short of it.
+    /// The shadow-ray rule: from `from` towards a light sample at
+    /// `distance` along the unit direction `wi`, stopping just short of it.
     #[inline]
-    pub fn shadow(p: Vec3, ng: Vec3, wi: Vec3, distance: f32) -> Ray {
-        Ray::spawn(p, ng, wi, distance * SHADOW_END)
+    pub fn shadow(from: &SpawnPoint, wi: Vec3, distance: f32) -> Ray {
+        Ray::spawn(from, wi, distance * SHADOW_END)
     }
 
     #[inline]

@@ -160,12 +160,8 @@ pub fn compare(
                     a.primitive_agree += 1;
                     a.same_primitive += 1;
                     let ng = angle_degrees(x.normal, y.normal);
-                    let sx = scene
-                        .surface_point(x.prim, ray.at(x.t), x.u, x.v)
-                        .shading_normal;
-                    let sy = scene
-                        .surface_point(y.prim, ray.at(y.t), y.u, y.v)
-                        .shading_normal;
+                    let sx = scene.surface_point(ray, &x).shading_normal;
+                    let sy = scene.surface_point(ray, &y).shading_normal;
                     let ns = angle_degrees(sx, sy);
                     a.worst_geometric_degrees = a.worst_geometric_degrees.max(ng);
                     a.worst_shading_degrees = a.worst_shading_degrees.max(ns);

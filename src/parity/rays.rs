@@ -3,6 +3,7 @@
 
 use glam::Vec3;
 
+use crate::accel::ray::SpawnPoint;
 use crate::accel::{Accel, Ray, TraceCounters};
 use crate::render::camera::{Camera, CameraMode};
 use crate::render::light::sample_li;
@@ -72,26 +73,25 @@ pub fn occlusion_rays(scene: &Scene, n: usize, seed: u64) -> Vec<Ray> {
         .collect()
 }
 
-/// Real hit points of camera rays, found with `reference`: position,
-/// geometric normal facing the camera.
+/// Real hit points of camera rays, found with `reference`, as the renderer
+/// sees them (geometric normal facing the camera).
 fn surface_points<A: Accel>(
     scene: &Scene,
     reference: &A,
     n: usize,
     seed: u64,
-) -> Vec<(Vec3, Vec3)> {
+) -> Vec<SpawnPoint> {
     let mut counters = TraceCounters::default();
     let mut out = Vec::with_capacity(n);
     let mut attempt = 0;
     while out.len() < n && attempt < 20 {
         for ray in camera_rays(scene, n, seed.wrapping_add(attempt)) {
             if let Some(hit) = reference.closest_hit(&ray, &mut counters) {
-                let ng = if hit.normal.dot(ray.dir) > 0.0 {
-                    -hit.normal
-                } else {
-                    hit.normal
-                };
-                out.push((ray.at(hit.t), ng));
+                let mut at = scene.surface_point(&ray, &hit).spawn_point();
+                if at.ng.dot(ray.dir) > 0.0 {
+                    at.ng = -at.ng;
+                }
+                out.push(at);
                 if out.len() == n {
                     break;
                 }
@@ -108,10 +108,10 @@ pub fn bounce_rays<A: Accel>(scene: &Scene, reference: &A, n: usize, seed: u64) 
     let mut rng = Rng::new(seed, 3);
     surface_points(scene, reference, n, seed)
         .into_iter()
-        .map(|(p, ng)| {
+        .map(|at| {
             let (u, v) = rng.next_2d();
-            let dir = Frame::new(ng).to_world(cosine_hemisphere(u, v));
-            Ray::spawn(p, ng, dir, f32::INFINITY)
+            let dir = Frame::new(at.ng).to_world(cosine_hemisphere(u, v));
+            Ray::spawn(&at, dir, f32::INFINITY)
         })
         .collect()
 }
@@ -125,12 +125,12 @@ pub fn shadow_rays<A: Accel>(scene: &Scene, reference: &A, n: usize, seed: u64) 
     }
     surface_points(scene, reference, n, seed)
         .into_iter()
-        .filter_map(|(p, ng)| {
+        .filter_map(|at| {
             let light = &scene.lights[(rng.next_u32() as usize) % scene.lights.len()];
-            let ls = sample_li(light, p, ng, &mut rng)?;
+            let ls = sample_li(light, at.p, at.ng, &mut rng)?;
             // Only lights above the surface get a shadow ray, as in the
             // integrator.
-            (ls.wi.dot(ng) > 0.0).then(|| Ray::shadow(p, ng, ls.wi, ls.distance))
+            (ls.wi.dot(at.ng) > 0.0).then(|| Ray::shadow(&at, ls.wi, ls.distance))
         })
         .collect()
 }
@@ -141,7 +141,7 @@ pub fn grazing_rays<A: Accel>(scene: &Scene, reference: &A, n: usize, seed: u64)
     let mut rng = Rng::new(seed, 5);
     surface_points(scene, reference, n, seed)
         .into_iter()
-        .map(|(p, ng)| {
+        .map(|SpawnPoint { p, ng, .. }| {
             let frame = Frame::new(ng);
             let phi = 2.0 * std::f32::consts::PI * rng.next_f32();
             let elevation = (rng.next_f32() - 0.5) * 0.5f32.to_radians() * 2.0;

@@ -18,6 +18,7 @@ use glam::Vec3;
 use super::light::{ambient_radiance, escaped_radiance, sample_li};
 use super::material::{self, emitted, is_specular};
 use super::sampling::{uniform_hemisphere, Frame, Rng, UNIFORM_HEMISPHERE_PDF};
+use crate::accel::ray::SpawnPoint;
 use crate::accel::{Accel, Ray, TraceCounters};
 use crate::scene::{Light, Material, Scene};
 
@@ -128,7 +129,7 @@ impl<'a, A: Accel> Integrator<'a, A> {
                     // Shown facing the camera, as the shading sees it.
                     let sp = self
                         .scene
-                        .surface_point(hit.prim, ray.at(hit.t), hit.u, hit.v);
+                        .surface_point(&ray, &hit);
                     let n = if ray.dir.dot(sp.geometric_normal) > 0.0 {
                         -sp.shading_normal
                     } else {
@@ -161,9 +162,7 @@ impl<'a, A: Accel> Integrator<'a, A> {
                 }
                 break;
             };
-            let sp = self
-                .scene
-                .surface_point(hit.prim, ray.at(hit.t), hit.u, hit.v);
+            let sp = self.scene.surface_point(&ray, &hit);
             let m = &self.scene.materials[sp.material as usize];
             let wo = -ray.dir;
             if specular && s.counts(depth) {
@@ -182,8 +181,9 @@ impl<'a, A: Accel> Integrator<'a, A> {
             };
             let frame = Frame::new(ns);
             let wo_local = frame.to_local(wo);
+            let at = SpawnPoint { ng, ..sp.spawn_point() };
             if !is_specular(m) {
-                let direct = self.direct(sp.position, ng, &frame, wo_local, m, s, rng, counters);
+                let direct = self.direct(&at, &frame, wo_local, m, s, rng, counters);
                 if s.counts(depth + 1) {
                     total += beta * direct;
                 }
@@ -205,7 +205,7 @@ impl<'a, A: Accel> Integrator<'a, A> {
             }
             let wi = frame.to_world(bs.wi);
             specular = bs.specular;
-            ray = Ray::spawn(sp.position, ng, wi, f32::INFINITY);
+            ray = Ray::spawn(&at, wi, f32::INFINITY);
             depth += 1;
         }
         total
@@ -216,8 +216,7 @@ impl<'a, A: Accel> Integrator<'a, A> {
     #[allow(clippy::too_many_arguments)]
     fn direct(
         &self,
-        p: Vec3,
-        ng: Vec3,
+        at: &SpawnPoint,
         frame: &Frame,
         wo: Vec3,
         m: &Material,
@@ -227,7 +226,7 @@ impl<'a, A: Accel> Integrator<'a, A> {
     ) -> Vec3 {
         let mut sum = Vec3::ZERO;
         for light in &self.delta_lights {
-            sum += self.light_sample(light, p, ng, frame, wo, m, rng, counters);
+            sum += self.light_sample(light, at, frame, wo, m, rng, counters);
         }
         let n = s.light_samples.max(1);
         match s.estimator {
@@ -235,7 +234,7 @@ impl<'a, A: Accel> Integrator<'a, A> {
                 for light in &self.sampled_lights {
                     let mut acc = Vec3::ZERO;
                     for _ in 0..n {
-                        acc += self.light_sample(light, p, ng, frame, wo, m, rng, counters);
+                        acc += self.light_sample(light, at, frame, wo, m, rng, counters);
                     }
                     sum += acc / n as f32;
                 }
@@ -250,14 +249,14 @@ impl<'a, A: Accel> Integrator<'a, A> {
                     let (u, v) = rng.next_2d();
                     let wi_local = uniform_hemisphere(u, v);
                     let wi = frame.to_world(wi_local);
-                    if wi.dot(ng) <= 0.0 {
+                    if wi.dot(at.ng) <= 0.0 {
                         continue;
                     }
                     let f = material::eval(m, wo, wi_local);
                     if f == Vec3::ZERO {
                         continue;
                     }
-                    let ray = Ray::spawn(p, ng, wi, f32::INFINITY);
+                    let ray = Ray::spawn(at, wi, f32::INFINITY);
                     let incoming = match self.accel.closest_hit(&ray, counters) {
                         Some(hit) => {
                             let material =
@@ -279,26 +278,25 @@ impl<'a, A: Accel> Integrator<'a, A> {
     fn light_sample(
         &self,
         light: &Light,
-        p: Vec3,
-        ng: Vec3,
+        at: &SpawnPoint,
         frame: &Frame,
         wo: Vec3,
         m: &Material,
         rng: &mut Rng,
         counters: &mut TraceCounters,
     ) -> Vec3 {
-        let Some(ls) = sample_li(light, p, frame.n, rng) else {
+        let Some(ls) = sample_li(light, at.p, frame.n, rng) else {
             return Vec3::ZERO;
         };
         let wi_local = frame.to_local(ls.wi);
-        if wi_local.z <= 0.0 || ls.wi.dot(ng) <= 0.0 {
+        if wi_local.z <= 0.0 || ls.wi.dot(at.ng) <= 0.0 {
             return Vec3::ZERO;
         }
         let f = material::eval(m, wo, wi_local);
         if f == Vec3::ZERO {
             return Vec3::ZERO;
         }
-        let shadow = Ray::shadow(p, ng, ls.wi, ls.distance);
+        let shadow = Ray::shadow(at, ls.wi, ls.distance);
         if self.accel.occluded(&shadow, counters) {
             return Vec3::ZERO;
         }

@@ -17,6 +17,9 @@ pub use self::material::Material;
 
 use glam::{Mat4, Vec3};
 
+use crate::accel::ray::{gamma, SpawnPoint};
+use crate::accel::{Hit, Ray};
+
 /// `v` scaled to unit length, or zero for a zero or non-finite `v`. Safe
 /// for any finite `v`: it is divided by its largest component first, so a
 /// cross product of long edges (1e12 squared and squared again overflows
@@ -195,11 +198,28 @@ pub struct Scene {
 #[derive(Clone, Copy, Debug)]
 pub struct SurfacePoint {
     pub position: Vec3,
+    /// Bound on the rounding error of each coordinate of `position`.
+    pub error: Vec3,
     /// Unit geometric normal (triangle winding / sphere outward).
     pub geometric_normal: Vec3,
     /// Unit shading normal, on the same side as `geometric_normal`.
     pub shading_normal: Vec3,
     pub material: u32,
+}
+
+/// How many ulps of a primitive's size the error bound of a surface point
+/// allows for the intersection tests' own rounding.
+const TEST_ULPS: u32 = 12;
+
+impl SurfacePoint {
+    /// Where rays leaving this point start (see [`Ray::spawn`]).
+    pub fn spawn_point(&self) -> SpawnPoint {
+        SpawnPoint {
+            p: self.position,
+            error: self.error,
+            ng: self.geometric_normal,
+        }
+    }
 }
 
 impl Scene {
@@ -266,20 +286,50 @@ impl Scene {
         }
     }
 
-    /// Shading data for a hit at `position` on primitive `prim` with
-    /// barycentrics `(u, v)` (weights of corners 1 and 2). Both backends' hits
-    /// go through here, so shading never depends on the backend.
-    pub fn surface_point(&self, prim: u32, position: Vec3, u: f32, v: f32) -> SurfacePoint {
-        let p = prim as usize;
+    /// Shading data for `hit` of `ray`. Both backends' hits go through
+    /// here, so shading never depends on the backend. The position is
+    /// recomputed from the hit rather than taken as `o + t d` (pbrt-v4's
+    /// approach): on a triangle from the barycentrics, clamped into the
+    /// triangle, so it lies on the triangle's plane within a few ulps
+    /// whatever `t`'s error; on a sphere projected onto it. Each comes with
+    /// a bound on its rounding error, which the spawn rule steps past.
+    pub fn surface_point(&self, ray: &Ray, hit: &Hit) -> SurfacePoint {
+        let p = hit.prim as usize;
         if p < self.mesh.len() {
+            let [a, b, c] = self.mesh.corners(p);
+            let u = hit.u.clamp(0.0, 1.0);
+            let v = hit.v.clamp(0.0, 1.0 - u);
+            let w = (1.0 - u - v).max(0.0);
+            let size = (b - a).abs().max((c - a).abs()).max((c - b).abs()).max_element();
+            let margin = gamma(TEST_ULPS) * size;
+            // A hit on an edge lies on the neighbour's plane too (a floor
+            // meeting a wall): step it into the triangle, towards the
+            // centroid, by twice the test error, so rays leaving it start
+            // clear of both surfaces. The shift is invisible (ulps).
+            let on_plane = a * w + b * u + c * v;
+            let inward = (a + b + c) / 3.0 - on_plane;
+            let reach = inward.length();
+            let position = if reach > 2.0 * margin {
+                on_plane + inward * (2.0 * margin / reach)
+            } else {
+                on_plane
+            };
+            // The interpolation's own rounding (pbrt-v4's bound, with two
+            // more operations for the step), plus the error of a
+            // ray/triangle test started at the point: the t of a ray
+            // leaving the plane is off by a few ulps of the triangle's
+            // size, so a ray must start farther off than that not to find
+            // its own triangle again at t ~ 0.
+            let error = gamma(9) * ((a * w).abs() + (b * u).abs() + (c * v).abs())
+                + Vec3::splat(margin);
             let ng = unit(self.mesh.face_normal(p));
             let ns = match self.normal_mode {
                 NormalMode::Flat => ng,
                 NormalMode::Smooth => {
-                    let [a, b, c] = self.mesh.indices[p];
-                    let n = self.mesh.normals[a as usize] * (1.0 - u - v)
-                        + self.mesh.normals[b as usize] * u
-                        + self.mesh.normals[c as usize] * v;
+                    let [ia, ib, ic] = self.mesh.indices[p];
+                    let n = self.mesh.normals[ia as usize] * w
+                        + self.mesh.normals[ib as usize] * u
+                        + self.mesh.normals[ic as usize] * v;
                     let n = n.normalize_or_zero();
                     if n == Vec3::ZERO {
                         ng
@@ -292,15 +342,22 @@ impl Scene {
             };
             SurfacePoint {
                 position,
+                error,
                 geometric_normal: ng,
                 shading_normal: ns,
                 material: self.mesh.materials[p],
             }
         } else {
             let s = &self.spheres[p - self.mesh.len()];
-            let n = ((position - s.center) / s.radius).normalize_or_zero();
+            let n = unit(ray.at(hit.t) - s.center);
+            let position = s.center + n * s.radius;
+            // The projection's rounding, and the sphere test's error in t
+            // for a ray started at the point (a few ulps of the radius and
+            // of the centre's magnitude).
+            let error = Vec3::splat(gamma(TEST_ULPS) * (s.center.abs().max_element() + s.radius));
             SurfacePoint {
                 position,
+                error,
                 geometric_normal: n,
                 shading_normal: n,
                 material: s.material,

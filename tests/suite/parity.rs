@@ -62,6 +62,12 @@ fn hard_cases_hold_the_design_promises() {
             if r.watertight_promise && *mode == BackendConfig::NATIVE {
                 mt_leaks += o.failures;
             }
+            // The floor-wall junctions of a box seen from inside: with its
+            // edge slack Möller-Trumbore does not leak there either (these
+            // were the black pixels along the default scene's junctions).
+            if r.name.starts_with("open box") && matches!(mode, BackendConfig::Native(_)) {
+                assert_eq!(o.failures, 0, "{}: {} {}", r.name, mode.label(), r.failure);
+            }
         }
         // Answers every mode must get right: no false hits on degenerate
         // triangles, right distances on tiny/huge triangles and spheres,

@@ -8,7 +8,7 @@ use glam::Vec3;
 
 use crate::accel::Ray;
 
-/// The nearest root in `[t_min, t_max]` of the ray against the sphere.
+/// The nearest root in `(t_min, t_max]` of the ray against the sphere.
 #[inline]
 pub fn intersect_sphere(
     center: Vec3,
@@ -31,9 +31,9 @@ pub fn intersect_sphere(
     if t0 > t1 {
         std::mem::swap(&mut t0, &mut t1);
     }
-    if t0 >= t_min && t0 <= t_max {
+    if t0 > t_min && t0 <= t_max {
         Some(t0)
-    } else if t1 >= t_min && t1 <= t_max {
+    } else if t1 > t_min && t1 <= t_max {
         Some(t1)
     } else {
         None

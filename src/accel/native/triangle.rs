@@ -64,7 +64,8 @@ pub trait TriangleTest: Send + Sync + 'static {
     fn setup(ray: &Ray) -> Self::Setup;
     /// Precomputes what the test keeps for a triangle with these corners.
     fn prepare(v0: Vec3, v1: Vec3, v2: Vec3) -> [Vec3; 3];
-    /// `(t, u, v)` of a hit with `t` in `[t_min, t_max]`.
+    /// `(t, u, v)` of a hit with `t` in `(t_min, t_max]` (Embree's
+    /// convention: a hit at exactly `t_min` is behind the origin).
     fn intersect(
         tri: &[Vec3; 3],
         ray: &Self::Setup,
@@ -112,16 +113,17 @@ impl TriangleTest for MollerTrumbore {
         let q = s.cross(e1);
         let (u_det, v_det) = (s.dot(p), d.dot(q));
         let (u_abs, v_abs) = (flip(u_det, sign), flip(v_det, sign));
-        if !(u_abs >= 0.0 && v_abs >= 0.0 && u_abs + v_abs <= abs * PREFILTER_SLACK) {
+        let (low, high) = (-abs * PREFILTER_LOW, abs * PREFILTER_HIGH);
+        if !(u_abs >= low && v_abs >= low && u_abs + v_abs <= high) {
             return None;
         }
         let inv = 1.0 / det;
         let (u, v) = (u_det * inv, v_det * inv);
-        if !(u >= 0.0 && v >= 0.0 && u + v <= 1.0) {
+        if !(u >= -EDGE_SLACK && v >= -EDGE_SLACK && u + v <= 1.0 + EDGE_SLACK) {
             return None;
         }
         let t = e2.dot(q) * inv;
-        if !(t >= t_min && t <= t_max) {
+        if !(t > t_min && t <= t_max) {
             return None;
         }
         Some((t, u, v))
@@ -132,6 +134,16 @@ const SIGN: u32 = 1 << 31;
 /// The prefilter's `u + v <= 1` is tested as `U + V <= |det| * slack`: the
 /// classic test's `fl(U / det) + fl(V / det) <= 1` allows a few ulps more.
 const PREFILTER_SLACK: f32 = 1.0 + 16.0 * f32::EPSILON;
+const PREFILTER_LOW: f32 = EDGE_SLACK * PREFILTER_SLACK;
+const PREFILTER_HIGH: f32 = (1.0 + EDGE_SLACK) * PREFILTER_SLACK;
+
+/// Möller-Trumbore accepts barycentrics this far outside the triangle: its
+/// rounding differs between the two triangles of an edge, so a ray aimed
+/// at the edge can miss both (a leak: the black pixel at a floor-wall
+/// junction). A margin of a few ulps of 1 closes most such gaps at no
+/// cost; the rare ray then hits both triangles and the nearer wins. The
+/// watertight test needs none.
+pub const EDGE_SLACK: f32 = 4e-6;
 
 /// `x` with its sign flipped when `sign` has the sign bit: `x * sign(det)`
 /// without a multiplication.
@@ -193,7 +205,7 @@ impl TriangleTest for Watertight {
         let t_scaled = e0 * az + e1 * bz + e2 * cz;
         let inv = 1.0 / det;
         let t = t_scaled * inv;
-        if !(t >= t_min && t <= t_max) {
+        if !(t > t_min && t <= t_max) {
             return None;
         }
         Some((t, e1 * inv, e2 * inv))
@@ -252,7 +264,7 @@ impl TriangleBlock4 {
         self.prims[i]
     }
 
-    /// The nearest hit in `[t_min, t_max]`: `(lane, t, u, v)`; on equal
+    /// The nearest hit in `(t_min, t_max]`: `(lane, t, u, v)`; on equal
     /// distances the later lane.
     #[inline(always)]
     pub fn nearest(&self, ray: &Ray, t_min: f32, t_max: f32) -> Option<LaneHit> {
@@ -320,15 +332,15 @@ impl TriangleBlock4 {
             let u_det = add(add(mul(sx, px), mul(sy, py)), mul(sz, pz));
             let v_det = add(add(mul(dx, qx), mul(dy, qy)), mul(dz, qz));
             let (u_abs, v_abs) = (_mm_xor_ps(u_det, sign), _mm_xor_ps(v_det, sign));
-            let zero = _mm_setzero_ps();
+            let low = mul(abs, _mm_set1_ps(-PREFILTER_LOW));
             let inside = _mm_and_ps(
                 _mm_and_ps(
                     _mm_cmpge_ps(abs, _mm_set1_ps(PARALLEL_DETERMINANT)),
-                    _mm_cmpge_ps(u_abs, zero),
+                    _mm_cmpge_ps(u_abs, low),
                 ),
                 _mm_and_ps(
-                    _mm_cmpge_ps(v_abs, zero),
-                    _mm_cmple_ps(add(u_abs, v_abs), mul(abs, _mm_set1_ps(PREFILTER_SLACK))),
+                    _mm_cmpge_ps(v_abs, low),
+                    _mm_cmple_ps(add(u_abs, v_abs), mul(abs, _mm_set1_ps(PREFILTER_HIGH))),
                 ),
             );
             if _mm_movemask_ps(inside) == 0 {
@@ -341,12 +353,15 @@ impl TriangleBlock4 {
                 _mm_and_ps(
                     inside,
                     _mm_and_ps(
-                        _mm_and_ps(_mm_cmpge_ps(u, zero), _mm_cmpge_ps(v, zero)),
-                        _mm_cmple_ps(add(u, v), _mm_set1_ps(1.0)),
+                        _mm_and_ps(
+                            _mm_cmpge_ps(u, _mm_set1_ps(-EDGE_SLACK)),
+                            _mm_cmpge_ps(v, _mm_set1_ps(-EDGE_SLACK)),
+                        ),
+                        _mm_cmple_ps(add(u, v), _mm_set1_ps(1.0 + EDGE_SLACK)),
                     ),
                 ),
                 _mm_and_ps(
-                    _mm_cmpge_ps(t, _mm_set1_ps(t_min)),
+                    _mm_cmpgt_ps(t, _mm_set1_ps(t_min)),
                     _mm_cmple_ps(t, _mm_set1_ps(t_max)),
                 ),
             );

@@ -392,6 +392,83 @@ pub fn rays_leaving_a_surface(n: usize, seed: u64) -> Vec<Case> {
     cases
 }
 
+/// The junctions of an open box (floor, back and side walls, as in a
+/// Cornell box), where two surfaces meet at a right angle. Rays from inside
+/// aimed exactly at a junction must hit no farther than it (a leak is the
+/// black pixel along a floor-wall edge); shadow rays from the points they
+/// hit, spawned with the project's rule, towards points inside the box
+/// must hit nothing (the box is convex from inside), so a hit is a ray
+/// that started behind the neighbouring wall.
+pub fn junctions(n: usize, seed: u64) -> Vec<Case> {
+    let (positions, all) = cube(true);
+    // Quads 0, 1: the side walls; 2: the floor; 4: the back wall.
+    let tris: Vec<[u32; 3]> = all
+        .iter()
+        .enumerate()
+        .filter(|(i, _)| [0, 1, 2, 4].contains(&(i / 2)))
+        .map(|(_, t)| *t)
+        .collect();
+    let normal = |t: u32| {
+        let [a, b, c] = tris[t as usize].map(|i| positions[i as usize]);
+        (b - a).cross(c - a).normalize()
+    };
+    let corners: Vec<_> = shared_edges(&tris)
+        .into_iter()
+        .filter(|&(_, _, t1, t2)| normal(t1).dot(normal(t2)).abs() < 0.5)
+        .collect();
+    let scene = mesh_scene("open box", &positions, &tris);
+    let mut rng = Rng::new(seed, 17);
+    let inside = |r: &mut Rng, reach: f32| {
+        (Vec3::new(r.next_f32(), r.next_f32(), r.next_f32()) * 2.0 - 1.0) * reach
+    };
+    let mut aimed = Vec::with_capacity(n);
+    let mut pairs = Vec::with_capacity(n);
+    for _ in 0..n {
+        let (a, b, t1, t2) = corners[(rng.next_u32() as usize) % corners.len()];
+        let target = positions[a as usize].lerp(positions[b as usize], rng.next_f32());
+        let origin = inside(&mut rng, 0.9);
+        let dir = target - origin;
+        aimed.push((Ray::new(origin, dir.normalize()), Expect::HitBy(dir.length())));
+        pairs.push(Some((t1, t2)));
+    }
+    let finder = BackendConfig::NATIVE_WATERTIGHT
+        .build(&scene)
+        .expect("the native backend cannot fail");
+    let mut counters = TraceCounters::default();
+    let shadows = aimed
+        .iter()
+        .filter_map(|(ray, _)| {
+            let hit = finder.closest_hit(ray, &mut counters)?;
+            let mut at = scene.surface_point(ray, &hit).spawn_point();
+            if at.ng.dot(ray.dir) > 0.0 {
+                at.ng = -at.ng;
+            }
+            let to = inside(&mut rng, 0.95) - at.p;
+            (to.dot(at.ng) > 0.0).then(|| {
+                let distance = to.length();
+                (Ray::shadow(&at, to / distance, distance), Expect::Miss)
+            })
+        })
+        .collect();
+    drop(finder);
+    vec![
+        Case {
+            name: "open box, rays from inside aimed at the wall junctions".into(),
+            failure: "leaks",
+            scene: scene.clone(),
+            rays: aimed,
+            watertight_promise: true,
+            edge_pairs: pairs,
+        },
+        Case::new(
+            "open box, shadow rays from junction points, spawn rule",
+            "self-intersections",
+            scene,
+            shadows,
+        ),
+    ]
+}
+
 /// Spheres from inside, from outside and tangent; tiny to huge radii.
 pub fn spheres(n: usize, seed: u64) -> Vec<Case> {
     let mut cases = Vec::new();
@@ -496,17 +573,16 @@ fn leaving_rays(
         let Some(hit) = finder.closest_hit(&probe, &mut counters) else {
             continue;
         };
-        let p = probe.at(hit.t);
-        let ng = if hit.normal.dot(probe.dir) > 0.0 {
-            -hit.normal
-        } else {
-            hit.normal
-        };
+        let mut at = scene.surface_point(&probe, &hit).spawn_point();
+        if at.ng.dot(probe.dir) > 0.0 {
+            at.ng = -at.ng;
+        }
         let (u, v) = rng.next_2d();
-        let dir = Frame::new(ng).to_world(cosine_hemisphere(u, v));
+        let dir = Frame::new(at.ng).to_world(cosine_hemisphere(u, v));
         let ray = match rule {
-            Spawn::Project => Ray::spawn(p, ng, dir, f32::INFINITY),
-            Spawn::Fixed(eps) => Ray::new(p + ng * eps, dir),
+            Spawn::Project => Ray::spawn(&at, dir, f32::INFINITY),
+            // The naive rule: o + t d, moved a fixed distance.
+            Spawn::Fixed(eps) => Ray::new(probe.at(hit.t) + at.ng * eps, dir),
         };
         rays.push((ray, Expect::Miss));
     }

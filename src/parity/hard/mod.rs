@@ -201,6 +201,7 @@ pub fn cases(rays_per_case: usize, seed: u64, scanned: Option<&Scene>) -> (Vec<C
     cases.extend(families::tiny_and_huge_triangles(n, seed));
     cases.push(families::degenerate_triangles(n, seed));
     cases.extend(families::rays_leaving_a_surface(n, seed));
+    cases.extend(families::junctions(n, seed));
     cases.extend(families::spheres(n, seed));
     cases.push(families::untraceable_rays(n));
     (cases, notes)
