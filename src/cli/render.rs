@@ -48,6 +48,10 @@ pub struct RenderArgs {
     /// Shade with flat (geometric) normals instead of smooth ones.
     #[arg(long)]
     pub flat: bool,
+    /// Smooth normals stop at edges sharper than this many degrees (faces
+    /// meeting at more keep their own normals); default: no crease.
+    #[arg(long, value_name = "DEG")]
+    pub crease: Option<f32>,
     /// Camera placement: the reference framing, or the camera node's own.
     #[arg(long, value_parser = choice::<CameraMode>(), default_value = CameraMode::default().name())]
     pub camera: CameraMode,
@@ -137,6 +141,11 @@ impl RenderArgs {
         }
         if self.light_samples == 0 {
             return Err("-l 0: at least one light sample is needed".into());
+        }
+        if let Some(deg) = self.crease {
+            if !(0.0..=180.0).contains(&deg) {
+                return Err(format!("--crease {deg}: the angle must be 0..=180 degrees"));
+            }
         }
         if self.leaf == 0 || self.leaf > 16 {
             return Err(format!("--leaf {}: leaf size must be 1..=16", self.leaf));
@@ -299,7 +308,12 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
     };
 
     let start = Instant::now();
-    let scene = args.input.load(normal_mode)?;
+    let mut scene = args.input.load(normal_mode)?;
+    match args.crease {
+        Some(_) if args.flat => eprintln!("hybrid: warning: --crease is ignored with --flat (every face keeps its own normal)"),
+        Some(degrees) => scene.mesh.crease(degrees),
+        None => {}
+    }
     say!("{}", scene.summary());
     say!(
         "collected {} primitives in {:.1} ms",

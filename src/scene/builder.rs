@@ -13,6 +13,22 @@ use super::{AreaLight, Bounds, CameraSpec, Light, Material, NormalMode, Scene, S
 /// they are; see [`SceneBuilder::finish`].
 pub const RANGE: f32 = (1u64 << 40) as f32;
 
+/// Whether triangle `t` lies in the plane of the rectangle of `light`
+/// (within 1e-4 of its size) with its centroid inside the rectangle.
+fn on_rectangle(light: &AreaLight, t: &[Vec3; 3]) -> bool {
+    let (u, v) = (light.edge_u, light.edge_v);
+    let size = u.length().max(v.length());
+    let tolerance = 1e-4 * size;
+    let off_plane = |p: Vec3| (p - light.origin).dot(light.normal).abs();
+    if t.iter().any(|&p| !(off_plane(p) <= tolerance)) {
+        return false;
+    }
+    let centroid = (t[0] + t[1] + t[2]) / 3.0 - light.origin;
+    let s = centroid.dot(u) / u.length_squared();
+    let r = centroid.dot(v) / v.length_squared();
+    (-1e-4..=1.0 + 1e-4).contains(&s) && (-1e-4..=1.0 + 1e-4).contains(&r)
+}
+
 /// Builds a [`Scene`] piece by piece.
 pub struct SceneBuilder {
     scene: Scene,
@@ -216,7 +232,38 @@ impl SceneBuilder {
     /// emission material of the light's radiance, so camera rays and
     /// bounces see them. They come after the emitter lights of the file's
     /// own emissive triangles, since each rectangle already is a light.
+    ///
+    /// An area light whose rectangle the file already covers with emissive
+    /// triangles (the course's coil scene models its lamp both ways) is
+    /// dropped with a warning: its rectangle would lie in the same plane as
+    /// that geometry, a tie each backend breaks its own way, and sampling
+    /// both would count the lamp twice. The file's geometry is the light.
     fn add_light_rectangles(&mut self) {
+        let emissive: Vec<[Vec3; 3]> = (0..self.scene.mesh.len())
+            .filter(|&i| {
+                let m = self.scene.mesh.materials[i] as usize;
+                self.scene.materials[m].emission() != Vec3::ZERO
+            })
+            .map(|i| self.scene.mesh.corners(i))
+            .collect();
+        let mut doubled = Vec::new();
+        self.scene.lights.retain(|l| match l {
+            Light::Area(a) if !a.triangle => {
+                let covering = emissive.iter().filter(|t| on_rectangle(a, t)).count();
+                if covering > 0 {
+                    doubled.push((a.origin + (a.edge_u + a.edge_v) * 0.5, covering));
+                }
+                covering == 0
+            }
+            _ => true,
+        });
+        for (centre, covering) in doubled {
+            let message = format!(
+                "{}: the area light centred at ({:.3}, {:.3}, {:.3}) lies on {covering} emissive triangles of the file; the light is left out and those triangles are the light",
+                self.scene.name, centre.x, centre.y, centre.z
+            );
+            self.warn(message);
+        }
         let quads: Vec<AreaLight> = self
             .scene
             .lights

@@ -53,6 +53,9 @@ pub struct TriangleMesh {
     pub materials: Vec<u32>,
     /// Per-vertex shading normals; empty in [`NormalMode::Flat`].
     pub normals: Vec<Vec3>,
+    /// Per-corner shading normals, used instead of `normals` when a crease
+    /// angle splits them ([`TriangleMesh::crease`]); empty otherwise.
+    pub corner_normals: Vec<[Vec3; 3]>,
 }
 
 impl TriangleMesh {
@@ -96,6 +99,55 @@ impl TriangleMesh {
             }
         }
         self.normals = sums.iter().map(|n| n.normalize_or_zero().as_vec3()).collect();
+    }
+
+    /// Smooth normals that stop at creases: each corner of a triangle
+    /// averages (area-weighted) only the faces around its vertex whose
+    /// normals are within `degrees` of the triangle's own, so faces meeting
+    /// at a sharper angle keep their own normals (a cube whose faces share
+    /// corners stays a cube) while curved surfaces stay smooth.
+    pub fn crease(&mut self, degrees: f32) {
+        let faces: Vec<glam::DVec3> = (0..self.len())
+            .map(|i| {
+                let [a, b, c] = self.corners(i).map(|p| p.as_dvec3());
+                (b - a).cross(c - a)
+            })
+            .collect();
+        // Faces around each vertex, in compressed rows.
+        let mut start = vec![0usize; self.positions.len() + 1];
+        for tri in &self.indices {
+            for &v in tri {
+                start[v as usize + 1] += 1;
+            }
+        }
+        for i in 0..self.positions.len() {
+            start[i + 1] += start[i];
+        }
+        let mut fill = start.clone();
+        let mut around = vec![0u32; start[self.positions.len()]];
+        for (f, tri) in self.indices.iter().enumerate() {
+            for &v in tri {
+                around[fill[v as usize]] = f as u32;
+                fill[v as usize] += 1;
+            }
+        }
+        let cos_limit = (degrees as f64).to_radians().cos();
+        self.corner_normals = (0..self.len())
+            .map(|f| {
+                let own = faces[f].normalize_or_zero();
+                self.indices[f].map(|v| {
+                    let v = v as usize;
+                    let mut sum = glam::DVec3::ZERO;
+                    for &g in &around[start[v]..start[v + 1]] {
+                        let n = faces[g as usize];
+                        if g as usize == f || n.normalize_or_zero().dot(own) >= cos_limit {
+                            sum += n;
+                        }
+                    }
+                    sum.normalize_or_zero().as_vec3()
+                })
+            })
+            .collect();
     }
 }
 
@@ -326,10 +378,11 @@ impl Scene {
             let ns = match self.normal_mode {
                 NormalMode::Flat => ng,
                 NormalMode::Smooth => {
-                    let [ia, ib, ic] = self.mesh.indices[p];
-                    let n = self.mesh.normals[ia as usize] * w
-                        + self.mesh.normals[ib as usize] * u
-                        + self.mesh.normals[ic as usize] * v;
+                    let [na, nb, nc] = match self.mesh.corner_normals.get(p) {
+                        Some(corners) => *corners,
+                        None => self.mesh.indices[p].map(|i| self.mesh.normals[i as usize]),
+                    };
+                    let n = na * w + nb * u + nc * v;
                     let n = n.normalize_or_zero();
                     if n == Vec3::ZERO {
                         ng

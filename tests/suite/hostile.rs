@@ -477,3 +477,55 @@ fn a_signal_during_the_write_leaves_nothing_behind() {
     }
     panic!("five renders finished their write before it could be interrupted");
 }
+
+/// The tiny scene with an emissive panel from the file exactly where the
+/// area light's rectangle goes (as in the course's coil scene), emitting
+/// `radiance`.
+fn with_emissive_panel(radiance: &str) -> impl Fn(&str) -> String + '_ {
+    move |t: &str| {
+        t.replacen(
+            "<library_geometries>",
+            &format!(
+                r##"<library_effects><effect id="glow"><extra><technique profile="CGL"><emission><radiance>{radiance}</radiance></emission></technique></extra></effect></library_effects>
+  <library_materials><material id="glow-material"><instance_effect url="#glow"/></material></library_materials>
+  <library_geometries>
+    <geometry id="panel"><mesh>
+      <source id="panel-pos">
+        <float_array id="panel-pos-array" count="12">-0.25 1.5 -0.5  0.25 1.5 -0.5  0.25 1.5 0.5  -0.25 1.5 0.5</float_array>
+        <technique_common><accessor source="#panel-pos-array" count="4" stride="3"/></technique_common>
+      </source>
+      <vertices id="panel-vtx"><input semantic="POSITION" source="#panel-pos"/></vertices>
+      <polylist count="1" material="glow"><input semantic="VERTEX" source="#panel-vtx" offset="0"/><vcount>4</vcount><p>0 1 2 3</p></polylist>
+    </mesh></geometry>"##
+            ),
+            1,
+        )
+        .replacen(
+            "<node id=\"ball-node\">",
+            r##"<node id="panel-node"><instance_geometry url="#panel"><bind_material><technique_common><instance_material symbol="glow" target="#glow-material"/></technique_common></bind_material></instance_geometry></node>
+      <node id="ball-node">"##,
+            1,
+        )
+    }
+}
+
+/// Class 15: an emissive panel in the file where an area light's rectangle
+/// would go is not doubled by the rectangle (the two surfaces would tie,
+/// and the backends break ties differently); the panel is the light, said
+/// in one warning, and both backends render the same image.
+#[test]
+fn an_area_light_on_emissive_geometry_is_not_doubled() {
+    let dir = common::scratch("hostile-coplanar");
+    let file = scene(&dir, "panel.dae", with_emissive_panel("3 3 3"));
+    // Hemisphere sampling: direct light is whatever the rays hit.
+    let render = |accel: &str, out: &str| {
+        let args = ["render", "-r", "64", "48", "-s", "16", "-H", "--accel", accel, "-f", out, &file];
+        let stderr = renders(&dir, &args, out, &["panel.dae", "emissive triangles"]);
+        assert_eq!(stderr.lines().count(), 1, "{stderr}");
+        pixels(&dir.join(out))
+    };
+    let native = render("native", "native.png");
+    let embree = render("embree", "embree.png");
+    let d = differing(&native, &embree);
+    assert!(d <= 0.002, "native and Embree differ on {d:.4} of pixels");
+}

@@ -316,3 +316,63 @@ fn a_missing_file_names_the_file() {
     .to_string();
     assert_mentions(&e, &["/no/such/scene.dae", "cannot read"]);
 }
+
+/// The default scene's cube has its own corners per face, so smooth
+/// normals leave it a cube (with eight shared corners they averaged it into
+/// a rounded blob).
+#[test]
+fn the_default_cube_keeps_flat_faces() {
+    let scene = common::default_scene();
+    let gold = scene
+        .materials
+        .iter()
+        .position(|m| matches!(m, Material::Microfacet { .. }))
+        .expect("the gold cube's material") as u32;
+    let cube: Vec<usize> = (0..scene.mesh.len())
+        .filter(|&i| scene.mesh.materials[i] == gold)
+        .collect();
+    assert_eq!(cube.len(), 12);
+    for i in cube {
+        let face = scene.mesh.face_normal(i).normalize();
+        for v in scene.mesh.indices[i] {
+            let n = scene.mesh.normals[v as usize];
+            assert!(n.dot(face) > 0.9999, "cube triangle {i}: vertex normal {n} vs face {face}");
+        }
+    }
+}
+
+/// A crease angle splits smooth normals at sharp edges only: a cube with
+/// shared corners gets flat faces, a finely tessellated sphere keeps the
+/// plain smooth normals.
+#[test]
+fn a_crease_angle_keeps_sharp_edges_and_smooth_curves() {
+    use hybrid::scene::generate::{cube, icosphere, SceneBuilder};
+    let build = |(positions, tris): (Vec<Vec3>, Vec<[u32; 3]>)| {
+        let mut b = SceneBuilder::new("creased");
+        let m = b.material(Material::DEFAULT);
+        b.mesh(&positions, &tris, m);
+        b.finish(NormalMode::Smooth)
+    };
+    let mut box_scene = build(cube(false));
+    let corner = box_scene.mesh.normals[0];
+    assert!(
+        (corner.abs() - Vec3::splat(1.0 / 3f32.sqrt())).length() < 1e-5,
+        "without a crease a shared corner averages three faces: {corner}"
+    );
+    box_scene.mesh.crease(60.0);
+    for (i, corners) in box_scene.mesh.corner_normals.iter().enumerate() {
+        let face = box_scene.mesh.face_normal(i).normalize();
+        for n in corners {
+            assert!(n.dot(face) > 0.9999, "triangle {i}: {n} vs face {face}");
+        }
+    }
+    let mut sphere = build(icosphere(3));
+    let smooth = sphere.mesh.normals.clone();
+    sphere.mesh.crease(60.0);
+    for (i, corners) in sphere.mesh.corner_normals.iter().enumerate() {
+        for (k, n) in corners.iter().enumerate() {
+            let v = sphere.mesh.indices[i][k] as usize;
+            assert!((*n - smooth[v]).length() < 1e-5, "sphere corner {i}.{k}: {n} vs {}", smooth[v]);
+        }
+    }
+}
