@@ -12,6 +12,7 @@
 pub mod brute;
 pub mod budget;
 pub mod error;
+pub mod fireflies;
 pub mod gallery;
 pub mod grid;
 pub mod headline;

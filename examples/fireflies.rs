@@ -1,0 +1,28 @@
+//! Developer tool: counts fireflies in EXR renders, pixels whose luminance
+//! exceeds 10x the median of their 5x5 neighbourhood.
+//! `cargo run --release --example fireflies -- a.exr b.exr ...`
+
+use hybrid::report::fireflies::count_fireflies;
+
+fn main() {
+    for path in std::env::args().skip(1) {
+        let img = match image::open(&path) {
+            Ok(img) => img.to_rgb32f(),
+            Err(e) => {
+                eprintln!("{path}: {e}");
+                std::process::exit(2);
+            }
+        };
+        let (w, h) = img.dimensions();
+        let luminance: Vec<f32> = img
+            .pixels()
+            .map(|p| 0.2126 * p.0[0] + 0.7152 * p.0[1] + 0.0722 * p.0[2])
+            .collect();
+        let n = count_fireflies(&luminance, w as usize, h as usize, 10.0);
+        println!("{path}: {n} fireflies of {} pixels", w * h);
+        if std::env::var_os("SHOW").is_some() {
+            let at = hybrid::report::fireflies::firefly_pixels(&luminance, w as usize, h as usize, 10.0);
+            println!("  {:?}", &at[..at.len().min(40)]);
+        }
+    }
+}
