@@ -1,6 +1,17 @@
-//! Scattering at a surface: evaluation and importance sampling of each
-//! material of the dialect, in the local frame of the shading normal
-//! (z = normal, both directions pointing away from the surface).
+//! Scattering at a surface: evaluation, sampling and sampling density of
+//! each material of the dialect, in the local frame of the shading normal
+//! (z = shading normal, both directions pointing away from the surface).
+//!
+//! Which directions an opaque surface scatters into is decided by the
+//! geometric normal, not the shading normal (the integrator requires
+//! `wo·ng > 0` and `wi·ng > 0`), as in pbrt-v3: smooth normals tilt the
+//! shading frame, and a view or a light below the shading plane but above
+//! the surface must not turn a surface black. Inside that rule the BSDF is
+//! evaluated in the shading frame with absolute cosines, whichever side of
+//! the shading plane each direction is on. Sampling draws directions on
+//! `wo`'s side of the shading plane only, and [`pdf`] is zero on the other
+//! side, so multiple importance sampling stays consistent there (light
+//! sampling alone covers that sliver).
 
 use glam::Vec3;
 use std::f32::consts::{FRAC_1_PI, PI};
@@ -8,11 +19,13 @@ use std::f32::consts::{FRAC_1_PI, PI};
 use super::sampling::{cosine_hemisphere, Rng};
 use crate::scene::Material;
 
-/// A sampled direction and its throughput weight `f * |cos| / pdf`.
+/// A sampled direction, its throughput weight `f * |cos| / pdf`, and the
+/// density it was drawn with (solid angle; meaningless when `specular`).
 #[derive(Clone, Copy, Debug)]
 pub struct BsdfSample {
     pub wi: Vec3,
     pub weight: Vec3,
+    pub pdf: f32,
     /// True for perfectly specular (delta) events: no light sampling there.
     pub specular: bool,
 }
@@ -36,9 +49,22 @@ pub fn emitted(m: &Material, cos: f32) -> Vec3 {
     }
 }
 
-/// BSDF value `f(wo, wi)` for non-delta materials (zero for delta ones).
+/// `wo` and `wi` mirrored so that `wo` lies above the shading plane, or
+/// `None` when `wi` is not on `wo`'s side of it (or either lies in it):
+/// where sampling draws directions.
+#[inline]
+fn same_side(wo: Vec3, wi: Vec3) -> Option<(Vec3, Vec3)> {
+    if wo.z * wi.z <= 0.0 {
+        return None;
+    }
+    let flip = |w: Vec3| Vec3::new(w.x, w.y, w.z.abs());
+    Some((flip(wo), flip(wi)))
+}
+
+/// BSDF value `f(wo, wi)` for non-delta materials (zero for delta ones),
+/// for any pair the geometric normal lets through.
 pub fn eval(m: &Material, wo: Vec3, wi: Vec3) -> Vec3 {
-    if wo.z <= 0.0 || wi.z <= 0.0 {
+    if wo.z == 0.0 || wi.z == 0.0 {
         return Vec3::ZERO;
     }
     match *m {
@@ -48,26 +74,54 @@ pub fn eval(m: &Material, wo: Vec3, wi: Vec3) -> Vec3 {
             if h == Vec3::ZERO {
                 return Vec3::ZERO;
             }
-            let f = fresnel_conductor(wi.dot(h), eta, k);
-            f * beckmann_d(h, alpha) * smith_g(wo, wi, alpha) / (4.0 * wo.z * wi.z)
+            let h = if h.z < 0.0 { -h } else { h };
+            let f = fresnel_conductor(wi.dot(h).abs(), eta, k);
+            f * beckmann_d(h, alpha) * smith_g2(wo, wi, alpha) / (4.0 * wo.z.abs() * wi.z.abs())
         }
         _ => Vec3::ZERO,
     }
 }
 
+/// The density (solid angle) with which [`sample`] draws `wi` for `wo`;
+/// zero for delta materials and for directions it never draws.
+pub fn pdf(m: &Material, wo: Vec3, wi: Vec3) -> f32 {
+    let Some((wo, wi)) = same_side(wo, wi) else {
+        return 0.0;
+    };
+    match *m {
+        Material::Lambertian { .. } => wi.z * FRAC_1_PI,
+        Material::Microfacet { alpha, .. } => {
+            let h = (wo + wi).normalize_or_zero();
+            if h == Vec3::ZERO {
+                return 0.0;
+            }
+            visible_normal_pdf(wo, h, alpha) / (4.0 * wo.dot(h).abs())
+        }
+        _ => 0.0,
+    }
+}
+
 /// Samples an incoming direction for outgoing `wo` (local frame; `wo.z` may
-/// be negative only for dielectrics, seen from inside).
+/// be negative for dielectrics seen from inside, and for opaque surfaces
+/// seen below their shading plane).
 pub fn sample(m: &Material, wo: Vec3, rng: &mut Rng) -> Option<BsdfSample> {
     let (u, v) = rng.next_2d();
+    // Opaque materials sample on wo's side of the shading plane.
+    let side = if wo.z < 0.0 { -1.0 } else { 1.0 };
+    let to_side = |w: Vec3| Vec3::new(w.x, w.y, w.z * side);
     match *m {
         Material::Lambertian { albedo, .. } => {
-            if wo.z <= 0.0 {
+            if wo.z == 0.0 {
                 return None;
             }
-            let wi = cosine_hemisphere(u, v);
+            let local = cosine_hemisphere(u, v);
+            if local.z <= 0.0 {
+                return None;
+            }
             Some(BsdfSample {
-                wi,
+                wi: to_side(local),
                 weight: albedo,
+                pdf: local.z * FRAC_1_PI,
                 specular: false,
             })
         }
@@ -75,6 +129,7 @@ pub fn sample(m: &Material, wo: Vec3, rng: &mut Rng) -> Option<BsdfSample> {
         Material::Mirror { reflectance } => Some(BsdfSample {
             wi: Vec3::new(-wo.x, -wo.y, wo.z),
             weight: reflectance,
+            pdf: 0.0,
             specular: true,
         }),
         Material::Glass {
@@ -90,6 +145,7 @@ pub fn sample(m: &Material, wo: Vec3, rng: &mut Rng) -> Option<BsdfSample> {
                 Some(BsdfSample {
                     wi: Vec3::new(-wo.x, -wo.y, wo.z),
                     weight: reflectance,
+                    pdf: 0.0,
                     specular: true,
                 })
             } else {
@@ -99,6 +155,7 @@ pub fn sample(m: &Material, wo: Vec3, rng: &mut Rng) -> Option<BsdfSample> {
                 Some(BsdfSample {
                     wi,
                     weight: transmittance / (eta * eta),
+                    pdf: 0.0,
                     specular: true,
                 })
             }
@@ -111,31 +168,37 @@ pub fn sample(m: &Material, wo: Vec3, rng: &mut Rng) -> Option<BsdfSample> {
             Some(BsdfSample {
                 wi,
                 weight: transmittance / (eta * eta),
+                pdf: 0.0,
                 specular: true,
             })
         }
-        Material::Microfacet { alpha, .. } => {
-            if wo.z <= 0.0 {
+        Material::Microfacet { alpha, eta, k } => {
+            let up = to_side(wo);
+            if up.z <= 0.0 {
                 return None;
             }
-            // Sample h with density D(h) cos(theta_h) (Walter et al. 2007).
-            let tan2 = -alpha * alpha * (1.0 - u).max(1e-12).ln();
-            let cos_h = 1.0 / (1.0 + tan2).sqrt();
-            let sin_h = (1.0 - cos_h * cos_h).max(0.0).sqrt();
-            let phi = 2.0 * PI * v;
-            let h = Vec3::new(sin_h * phi.cos(), sin_h * phi.sin(), cos_h);
-            let wi = 2.0 * wo.dot(h) * h - wo;
-            if wi.z <= 0.0 || wo.dot(h) <= 0.0 {
+            // A microfacet normal as the view sees them (Heitz and d'Eon
+            // 2014), so no sample is wasted on facets facing away.
+            let h = sample_visible_normal(up, alpha, u, v);
+            let cos_oh = up.dot(h);
+            if cos_oh <= 0.0 {
                 return None;
             }
-            let pdf = beckmann_d(h, alpha) * cos_h / (4.0 * wo.dot(h));
-            if pdf <= 0.0 {
+            let wi = 2.0 * cos_oh * h - up;
+            if wi.z <= 0.0 {
                 return None;
             }
-            let weight = eval(m, wo, wi) * wi.z / pdf;
+            let pdf = visible_normal_pdf(up, h, alpha) / (4.0 * cos_oh);
+            if !(pdf > 0.0) {
+                return None;
+            }
+            // f cos / pdf = F G2 / G1(wo) for visible-normal sampling.
+            let weight = fresnel_conductor(wi.dot(h), eta, k) * smith_g2(up, wi, alpha)
+                / smith_g1(up, alpha);
             Some(BsdfSample {
-                wi,
+                wi: to_side(wi),
                 weight,
+                pdf,
                 specular: false,
             })
         }
@@ -190,28 +253,281 @@ fn beckmann_d(h: Vec3, alpha: f32) -> f32 {
     (-tan2 / (alpha * alpha)).exp() / (PI * alpha * alpha * cos2 * cos2)
 }
 
-/// Smith shadowing-masking for Beckmann, rational approximation of Walter
-/// et al. 2007 (eq. 27).
-fn smith_g(wo: Vec3, wi: Vec3, alpha: f32) -> f32 {
-    let g1 = |w: Vec3| {
-        let cos = w.z;
-        let tan = (1.0 - cos * cos).max(0.0).sqrt() / cos;
-        if tan == 0.0 {
-            return 1.0;
-        }
-        let a = 1.0 / (alpha * tan);
-        if a >= 1.6 {
-            1.0
-        } else {
-            (3.535 * a + 2.181 * a * a) / (1.0 + 2.276 * a + 2.577 * a * a)
-        }
+/// Smith's Λ for the Beckmann distribution, exact (Walter et al. 2007,
+/// eq. 24 in terms of erf): `(erf(a) - 1) / 2 + e^(-a²) / (2 a √π)`,
+/// `a = 1 / (alpha tan θ)`.
+fn beckmann_lambda(w: Vec3, alpha: f32) -> f32 {
+    let cos = w.z.abs();
+    let sin = (1.0 - cos * cos).max(0.0).sqrt();
+    if sin == 0.0 {
+        return 0.0;
+    }
+    let a = cos / (alpha * sin);
+    if a > 6.0 {
+        return 0.0; // below f32 resolution
+    }
+    0.5 * (erf(a) - 1.0) + (-a * a).exp() / (2.0 * a * PI.sqrt())
+}
+
+/// Masking of one direction.
+fn smith_g1(w: Vec3, alpha: f32) -> f32 {
+    1.0 / (1.0 + beckmann_lambda(w, alpha))
+}
+
+/// Height-correlated masking-shadowing (Heitz 2014, "Understanding the
+/// masking-shadowing function").
+fn smith_g2(wo: Vec3, wi: Vec3, alpha: f32) -> f32 {
+    1.0 / (1.0 + beckmann_lambda(wo, alpha) + beckmann_lambda(wi, alpha))
+}
+
+/// Density of visible normal `h` seen from `wo` (upper hemisphere):
+/// `G1(wo) max(0, wo·h) D(h) / wo.z`.
+fn visible_normal_pdf(wo: Vec3, h: Vec3, alpha: f32) -> f32 {
+    let cos_oh = wo.dot(h);
+    if cos_oh <= 0.0 || wo.z <= 0.0 {
+        return 0.0;
+    }
+    smith_g1(wo, alpha) * cos_oh * beckmann_d(h, alpha) / wo.z
+}
+
+/// A Beckmann microfacet normal distributed as the visible normals from
+/// `wo` (Heitz and d'Eon 2014, "Importance sampling microfacet-based BSDFs
+/// using the distribution of visible normals"): stretch the view to unit
+/// roughness, sample the slopes of the visible facets (the x slope by
+/// numerically inverting its CDF, the y slope as a normal variate), rotate
+/// and unstretch. The x-slope inversion is the safeguarded Newton iteration
+/// of Jakob's Mitsuba implementation (also in pbrt-v3), written anew.
+fn sample_visible_normal(wo: Vec3, alpha: f32, u: f32, v: f32) -> Vec3 {
+    let stretched = Vec3::new(alpha * wo.x, alpha * wo.y, wo.z).normalize();
+    let cos_theta = stretched.z;
+    let (sx, sy) = visible_slopes(cos_theta, u, v);
+    // Rotate by the view's azimuth.
+    let sin_theta = (1.0 - cos_theta * cos_theta).max(0.0).sqrt();
+    let (cos_phi, sin_phi) = if sin_theta > 1e-7 {
+        (stretched.x / sin_theta, stretched.y / sin_theta)
+    } else {
+        (1.0, 0.0)
     };
-    g1(wo) * g1(wi)
+    let (rx, ry) = (cos_phi * sx - sin_phi * sy, sin_phi * sx + cos_phi * sy);
+    // Unstretch; the normal of a facet with slopes (x, y) is (-x, -y, 1).
+    Vec3::new(-alpha * rx, -alpha * ry, 1.0).normalize()
+}
+
+/// Slopes of a visible facet of the unit-roughness Beckmann surface seen at
+/// `cos_theta` from the x-z plane.
+fn visible_slopes(cos_theta: f32, u: f32, v: f32) -> (f32, f32) {
+    let v = v.max(1e-6);
+    if cos_theta > 0.9999 {
+        // Seen from above: the slope distribution itself.
+        let r = (-(1.0 - u).max(1e-12).ln()).sqrt();
+        let phi = 2.0 * PI * v;
+        return (r * phi.cos(), r * phi.sin());
+    }
+    let sin_theta = (1.0 - cos_theta * cos_theta).max(0.0).sqrt();
+    let tan_theta = sin_theta / cos_theta;
+    let cot_theta = 1.0 / tan_theta;
+    // The CDF of the x slope in terms of b = erf(x): solve
+    // C(b) = n (1 + b + tan θ e^(-erfinv(b)²) / √π) = u on [-1, erf(cot θ)].
+    let (mut lo, mut hi) = (-1.0f32, erf(cot_theta));
+    let u = u.max(1e-6);
+    let theta = cos_theta.acos();
+    // A good first guess (Jakob's fit), then safeguarded Newton steps.
+    let fit = 1.0 + theta * (-0.876 + theta * (0.4265 - 0.0594 * theta));
+    let mut b = hi - (1.0 + hi) * (1.0 - u).powf(fit);
+    let norm = 1.0 / (1.0 + hi + tan_theta * (-cot_theta * cot_theta).exp() / PI.sqrt());
+    for _ in 0..10 {
+        if !(b >= lo && b <= hi) {
+            b = 0.5 * (lo + hi);
+        }
+        let x = erf_inv(b);
+        let value = norm * (1.0 + b + tan_theta * (-x * x).exp() / PI.sqrt()) - u;
+        if value.abs() < 1e-5 {
+            break;
+        }
+        if value > 0.0 {
+            hi = b;
+        } else {
+            lo = b;
+        }
+        let derivative = norm * (1.0 - x * tan_theta);
+        b -= value / derivative;
+    }
+    (erf_inv(b), erf_inv(2.0 * v - 1.0))
+}
+
+/// The error function (Abramowitz and Stegun 7.1.26, |error| < 1.5e-7).
+fn erf(x: f32) -> f32 {
+    let t = 1.0 / (1.0 + 0.327_591_1 * x.abs());
+    let poly = t
+        * (0.254_829_6
+            + t * (-0.284_496_74 + t * (1.421_413_7 + t * (-1.453_152_1 + t * 1.061_405_4))));
+    let y = 1.0 - poly * (-x * x).exp();
+    y.copysign(x)
+}
+
+/// The inverse error function (Giles 2010, "Approximating the erfinv
+/// function", single-precision version).
+fn erf_inv(x: f32) -> f32 {
+    let x = x.clamp(-0.999_999_9, 0.999_999_9);
+    let mut w = -((1.0 - x) * (1.0 + x)).ln();
+    let p = if w < 5.0 {
+        w -= 2.5;
+        let mut p = 2.810_226_4e-8;
+        for c in [
+            3.432_739_4e-7,
+            -3.523_387_7e-6,
+            -4.391_506_5e-6,
+            0.000_218_580_87,
+            -0.001_253_725,
+            -0.004_177_681_6,
+            0.246_640_73,
+            1.501_409_4,
+        ] {
+            p = c + p * w;
+        }
+        p
+    } else {
+        w = w.sqrt() - 3.0;
+        let mut p = -0.000_200_214_25;
+        for c in [
+            0.000_100_950_56,
+            0.001_349_343_2,
+            -0.003_673_428_4,
+            0.005_739_507_7,
+            -0.007_622_461,
+            0.009_438_870_5,
+            1.001_674_1,
+            2.832_976_8,
+        ] {
+            p = c + p * w;
+        }
+        p
+    };
+    p * x
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn erf_and_its_inverse_are_accurate() {
+        for (x, want) in [(0.1f32, 0.112_462_92f64), (0.5, 0.520_499_9), (1.0, 0.842_700_8), (2.0, 0.995_322_3)] {
+            assert!((erf(x) as f64 - want).abs() < 3e-7, "erf({x}) = {}", erf(x));
+            assert!((erf(-x) as f64 + want).abs() < 3e-7);
+        }
+        for i in -99..=99 {
+            let y = i as f32 / 100.0;
+            let x = erf_inv(y);
+            assert!((erf(x) - y).abs() < 2e-6, "erf(erf_inv({y})) = {}", erf(x));
+        }
+    }
+
+    /// Chi-square test of a material's sampling against its density, as
+    /// pbrt-v4 and Mitsuba test their BSDFs: directions binned by
+    /// (x, φ) with `x = (1 - cos θ)^(1/4)` (fine near the normal, where
+    /// narrow lobes live), observed counts against N times the density
+    /// integrated over each bin (midpoint rule on a finer grid, with
+    /// `dω = 4 x³ dx dφ`). Bins expecting fewer than 5 samples are pooled.
+    fn chi_square(m: &Material, wo: Vec3) -> (f64, usize, f64, f64) {
+        const CT: usize = 16;
+        const PH: usize = 32;
+        const N: usize = 400_000;
+        let mut observed = vec![0f64; CT * PH];
+        let mut rng = Rng::new(7, 3);
+        let bin = |w: Vec3| {
+            let x = (1.0 - w.z.clamp(0.0, 1.0)).max(0.0).powf(0.25);
+            let ct = ((x * CT as f32) as usize).min(CT - 1);
+            let phi = w.y.atan2(w.x).rem_euclid(2.0 * PI);
+            let ph = ((phi / (2.0 * PI) * PH as f32) as usize).min(PH - 1);
+            ct * PH + ph
+        };
+        let mut total = 0.0f64;
+        for _ in 0..N {
+            if let Some(s) = sample(m, wo, &mut rng) {
+                assert!(s.wi.z > 0.0);
+                let want = eval(m, wo, s.wi) * s.wi.z / s.pdf;
+                assert!((want - s.weight).abs().max_element() <= 1e-3 * want.max_element().max(1e-3),
+                    "weight {} vs f cos / pdf {}", s.weight, want);
+                assert!((pdf(m, wo, s.wi) - s.pdf).abs() <= 1e-3 * s.pdf, "pdf {} vs {}", pdf(m, wo, s.wi), s.pdf);
+                observed[bin(s.wi)] += 1.0;
+            }
+        }
+        // Expected: the density integrated over each bin.
+        // Grazing narrow lobes need fine steps.
+        const SUB_X: usize = 48;
+        const SUB_PHI: usize = 48;
+        let mut expected = vec![0f64; CT * PH];
+        for ct in 0..CT {
+            for ph in 0..PH {
+                let mut acc = 0.0f64;
+                for a in 0..SUB_X {
+                    for b in 0..SUB_PHI {
+                        let x = (ct as f64 + (a as f64 + 0.5) / SUB_X as f64) / CT as f64;
+                        let c = (1.0 - x.powi(4)) as f32;
+                        let phi = 2.0 * PI * (ph as f32 + (b as f32 + 0.5) / SUB_PHI as f32) / PH as f32;
+                        let s = (1.0 - c * c).max(0.0).sqrt();
+                        let wi = Vec3::new(s * phi.cos(), s * phi.sin(), c);
+                        acc += pdf(m, wo, wi) as f64 * 4.0 * x.powi(3);
+                    }
+                }
+                let area = (1.0 / CT as f64) * (2.0 * std::f64::consts::PI / PH as f64);
+                let mean = acc / (SUB_X * SUB_PHI) as f64;
+                expected[ct * PH + ph] = mean * area * N as f64;
+                total += mean * area;
+            }
+        }
+        let (mut chi2, mut dof) = (0.0f64, 0usize);
+        let (mut pool_o, mut pool_e) = (0.0, 0.0);
+        for (o, e) in observed.iter().zip(&expected) {
+            if *e < 5.0 {
+                pool_o += o;
+                pool_e += e;
+            } else {
+                chi2 += (o - e) * (o - e) / e;
+                dof += 1;
+            }
+        }
+        if pool_e >= 5.0 {
+            chi2 += (pool_o - pool_e) * (pool_o - pool_e) / pool_e;
+            dof += 1;
+        }
+        let accepted = observed.iter().sum::<f64>() / N as f64;
+        (chi2, dof, total, accepted)
+    }
+
+    #[test]
+    fn sampling_matches_the_density_chi_square() {
+        let materials = [
+            Material::lambertian(Vec3::splat(0.5)),
+            Material::Microfacet { alpha: 0.05, eta: Vec3::splat(0.2), k: Vec3::splat(3.0) },
+            Material::Microfacet { alpha: 0.25, eta: Vec3::splat(0.2), k: Vec3::splat(3.0) },
+            Material::Microfacet { alpha: 0.7, eta: Vec3::splat(0.2), k: Vec3::splat(3.0) },
+        ];
+        for m in &materials {
+            for theta in [0.0f32, 0.6, 1.2, 1.5] {
+                let wo = Vec3::new(theta.sin(), 0.0, theta.cos());
+                let (chi2, dof, integral, accepted) = chi_square(m, wo);
+                // Wilson-Hilferty: chi2/dof above 1 + 3.1 sqrt(2/dof) has
+                // probability ~1e-3 under the hypothesis.
+                let limit = dof as f64 * (1.0 + 3.1 * (2.0 / dof as f64).sqrt());
+                assert!(
+                    chi2 < limit,
+                    "{m:?} at θ {theta}: chi² {chi2:.0} over {dof} bins (limit {limit:.0})"
+                );
+                // The density integrates to the share of draws that give a
+                // direction (the rest reflect below the horizon): 1 for
+                // Lambertian, less for rough metal seen at an angle.
+                assert!(
+                    (integral - accepted).abs() < 5e-3,
+                    "{m:?} at θ {theta}: density integrates to {integral}, {accepted} of draws give a direction"
+                );
+                if matches!(m, Material::Lambertian { .. }) {
+                    assert!((integral - 1.0).abs() < 1e-3, "Lambertian density integrates to {integral}");
+                }
+            }
+        }
+    }
 
     #[test]
     fn microfacet_sampling_matches_its_evaluation() {
