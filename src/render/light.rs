@@ -1,11 +1,15 @@
 //! Light sampling: for a shading point, a direction towards a light, the
-//! radiance arriving along it, and its density (`sample_li`), plus what
-//! escaped rays see.
+//! radiance arriving along it, and its density (`sample_li`); the density
+//! of any direction that reaches a light (`pdf_li`, for multiple importance
+//! sampling); which lights a vertex samples and how often (`LightSet`);
+//! and what escaped rays see.
+
+use std::collections::HashMap;
 
 use glam::Vec3;
 
-use super::sampling::{cosine_hemisphere, uniform_sphere, Frame, Rng};
-use crate::scene::Light;
+use super::sampling::{cosine_hemisphere, luminance, uniform_sphere, Frame, Rng};
+use crate::scene::{Light, Scene};
 
 /// Incident light from one sample of a light.
 #[derive(Clone, Copy, Debug)]
@@ -17,33 +21,41 @@ pub struct LightSample {
     /// Incident radiance divided by the sample's density (solid angle), so
     /// that `f * cos * contribution` is the estimate.
     pub contribution: Vec3,
+    /// The density (solid angle) the direction was drawn with; infinite for
+    /// delta lights, which no other strategy can find.
+    pub pdf: f32,
 }
 
-/// The sample for point `q` (normal `normal`) drawn uniformly on an
-/// emitter of total `area`, seen from `p`: the area density 1/A becomes
-/// the solid-angle density d^2 / (cos A).
-fn from_area_point(
-    p: Vec3,
-    q: Vec3,
-    normal: Vec3,
-    area: f32,
-    radiance: Vec3,
-) -> Option<LightSample> {
+/// Solid-angle density at `p` of a point `q` with normal `normal` drawn
+/// uniformly on an emitter of total `area`: `d² / (cos · A)`; zero from
+/// behind.
+fn area_to_solid_angle(p: Vec3, q: Vec3, normal: Vec3, area: f32) -> f32 {
     let to = q - p;
     let d2 = to.length_squared();
     if d2 == 0.0 {
-        return None;
+        return 0.0;
     }
-    let distance = d2.sqrt();
-    let wi = to / distance;
-    let cos_light = -wi.dot(normal);
+    let cos_light = -to.dot(normal) / d2.sqrt();
     if cos_light <= 0.0 {
+        return 0.0;
+    }
+    d2 / (cos_light * area)
+}
+
+/// The sample for point `q` (normal `normal`) drawn uniformly on an
+/// emitter of total `area`, seen from `p`.
+fn from_area_point(p: Vec3, q: Vec3, normal: Vec3, area: f32, radiance: Vec3) -> Option<LightSample> {
+    let pdf = area_to_solid_angle(p, q, normal, area);
+    if !(pdf > 0.0) || !pdf.is_finite() {
         return None;
     }
+    let to = q - p;
+    let distance = to.length();
     Some(LightSample {
-        wi,
+        wi: to / distance,
         distance,
-        contribution: radiance * (cos_light * area / d2),
+        contribution: radiance / pdf,
+        pdf,
     })
 }
 
@@ -69,17 +81,20 @@ pub fn sample_li(light: &Light, p: Vec3, n: Vec3, rng: &mut Rng) -> Option<Light
                 wi: to / distance,
                 distance,
                 contribution: intensity / d2,
+                pdf: f32::INFINITY,
             })
         }
         Light::Directional { to_light, radiance } => Some(LightSample {
             wi: to_light,
             distance: f32::INFINITY,
             contribution: radiance,
+            pdf: f32::INFINITY,
         }),
         Light::Sphere {
             center,
             radius,
             radiance,
+            ..
         } => {
             // Uniform over the sphere's area; the far side faces away and
             // gives nothing.
@@ -96,12 +111,151 @@ pub fn sample_li(light: &Light, p: Vec3, n: Vec3, rng: &mut Rng) -> Option<Light
             if wi.y <= 0.0 || local.z <= 0.0 {
                 return None;
             }
+            let pdf = local.z * std::f32::consts::FRAC_1_PI;
             Some(LightSample {
                 wi,
                 distance: f32::INFINITY,
-                contribution: radiance * (std::f32::consts::PI / local.z),
+                contribution: radiance / pdf,
+                pdf,
             })
         }
+    }
+}
+
+/// The density with which [`sample_li`] on `light` from `p` (normal `n`)
+/// draws the direction that reaches point `q` of the light (normal
+/// `q_normal`), or direction `wi` for the ambient light.
+pub fn pdf_li(light: &Light, p: Vec3, n: Vec3, q: Vec3, q_normal: Vec3, wi: Vec3) -> f32 {
+    match *light {
+        Light::Area(a) => area_to_solid_angle(p, q, a.normal, a.area),
+        Light::Sphere { radius, .. } => {
+            area_to_solid_angle(p, q, q_normal, 4.0 * std::f32::consts::PI * radius * radius)
+        }
+        Light::Ambient { .. } => (wi.dot(n)).max(0.0) * std::f32::consts::FRAC_1_PI,
+        Light::Point { .. } | Light::Directional { .. } => 0.0,
+    }
+}
+
+/// Which lights a vertex samples, and with what probability each sample
+/// picks a light:
+/// - the file's own lights (area rectangles, ambient) take `-l` samples
+///   each, as in the course;
+/// - emissive triangles and spheres (one light per triangle of an emissive
+///   mesh) share `-l` samples, each choosing an emitter with probability
+///   proportional to its power, so a lamp of ten thousand triangles costs
+///   one shadow ray per sample, not ten thousand;
+/// - delta lights (point, directional) take one sample each.
+pub struct LightSet {
+    pub each: Vec<Light>,
+    pub emitters: Vec<Light>,
+    /// Cumulative selection probabilities of `emitters`.
+    emitter_cdf: Vec<f32>,
+    pub delta: Vec<Light>,
+    /// For every primitive that is a light's surface: the light's group
+    /// and index (for the density of a BSDF-sampled ray that hits it).
+    by_primitive: HashMap<u32, LightRef>,
+    /// Index into `each` of the ambient light, if any.
+    ambient: Option<usize>,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum LightRef {
+    Each(usize),
+    Emitter(usize),
+}
+
+impl LightSet {
+    pub fn new(scene: &Scene) -> LightSet {
+        let mut set = LightSet {
+            each: Vec::new(),
+            emitters: Vec::new(),
+            emitter_cdf: Vec::new(),
+            delta: Vec::new(),
+            by_primitive: HashMap::new(),
+            ambient: None,
+        };
+        let mut refs = Vec::with_capacity(scene.lights.len());
+        for light in &scene.lights {
+            let r = match light {
+                Light::Point { .. } | Light::Directional { .. } => {
+                    set.delta.push(*light);
+                    None
+                }
+                Light::Area(a) if a.triangle => {
+                    set.emitters.push(*light);
+                    Some(LightRef::Emitter(set.emitters.len() - 1))
+                }
+                Light::Sphere { .. } => {
+                    set.emitters.push(*light);
+                    Some(LightRef::Emitter(set.emitters.len() - 1))
+                }
+                Light::Area(_) | Light::Ambient { .. } => {
+                    if matches!(light, Light::Ambient { .. }) {
+                        set.ambient = Some(set.each.len());
+                    }
+                    set.each.push(*light);
+                    Some(LightRef::Each(set.each.len() - 1))
+                }
+            };
+            refs.push(r);
+        }
+        for (prim, light) in scene.light_surfaces() {
+            if let Some(r) = refs[light] {
+                set.by_primitive.insert(prim, r);
+            }
+        }
+        let power: Vec<f64> = set
+            .emitters
+            .iter()
+            .map(|l| match *l {
+                Light::Area(a) => luminance(a.radiance) as f64 * a.area as f64,
+                Light::Sphere { radius, radiance, .. } => {
+                    luminance(radiance) as f64 * (radius as f64).powi(2) * 4.0 * std::f64::consts::PI
+                }
+                _ => 0.0,
+            })
+            .collect();
+        let total: f64 = power.iter().sum();
+        let mut acc = 0.0;
+        set.emitter_cdf = power
+            .iter()
+            .map(|p| {
+                acc += if total > 0.0 { p / total } else { 1.0 / power.len() as f64 };
+                acc as f32
+            })
+            .collect();
+        if let Some(last) = set.emitter_cdf.last_mut() {
+            *last = 1.0;
+        }
+        set
+    }
+
+    /// Probability that one emitter sample picks emitter `i`.
+    pub fn emitter_pmf(&self, i: usize) -> f32 {
+        let below = if i == 0 { 0.0 } else { self.emitter_cdf[i - 1] };
+        self.emitter_cdf[i] - below
+    }
+
+    /// An emitter chosen by power with `u` in [0, 1): index and probability.
+    pub fn pick_emitter(&self, u: f32) -> (usize, f32) {
+        let i = self.emitter_cdf.partition_point(|&c| c <= u).min(self.emitters.len() - 1);
+        (i, self.emitter_pmf(i))
+    }
+
+    /// The light whose surface primitive `prim` is, if any.
+    pub fn light_of(&self, prim: u32) -> Option<LightRef> {
+        self.by_primitive.get(&prim).copied()
+    }
+
+    /// The ambient light, sampled like the file's lights.
+    pub fn ambient(&self) -> Option<&Light> {
+        self.ambient.map(|i| &self.each[i])
+    }
+
+    /// Sample groups that light sampling (or hemisphere sampling) takes
+    /// `-l` samples of: one per file light, one for all emitters.
+    pub fn groups(&self) -> usize {
+        self.each.len() + usize::from(!self.emitters.is_empty())
     }
 }
 

@@ -264,16 +264,20 @@ impl SceneBuilder {
             );
             self.warn(message);
         }
-        let quads: Vec<AreaLight> = self
+        let quads: Vec<(usize, AreaLight)> = self
             .scene
             .lights
             .iter()
-            .filter_map(|l| match l {
-                Light::Area(a) if !a.triangle => Some(*a),
+            .enumerate()
+            .filter_map(|(i, l)| match l {
+                Light::Area(a) if !a.triangle => Some((i, *a)),
                 _ => None,
             })
             .collect();
-        for quad in quads {
+        for (light, quad) in quads {
+            if let Light::Area(a) = &mut self.scene.lights[light] {
+                a.surface = self.scene.mesh.len() as u32;
+            }
             let material = self.material(Material::Emission {
                 radiance: quad.radiance,
             });

@@ -171,6 +171,7 @@ pub fn sphere_cloud(count: u32, level: u32, seed: u64) -> Scene {
         normal: Vec3::new(0.0, -1.0, 0.0),
         radiance: Vec3::splat(4.0),
         area: 1.0,
+        surface: crate::scene::AreaLight::NO_SURFACE,
     }));
     b.camera(Vec3::new(0.0, 0.4, 3.5), Vec3::ZERO, 50.0, 40.0);
     b.finish(NormalMode::Smooth)

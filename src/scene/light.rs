@@ -17,9 +17,15 @@ pub struct AreaLight {
     pub normal: Vec3,
     pub radiance: Vec3,
     pub area: f32,
+    /// The first of the mesh triangles that are this light's surface (one
+    /// for a triangle, two for a rectangle), [`AreaLight::NO_SURFACE`] until
+    /// the builder adds them.
+    pub surface: u32,
 }
 
 impl AreaLight {
+    pub const NO_SURFACE: u32 = u32::MAX;
+
     /// The point at `(s, t)` in the unit square, mapped uniformly onto the
     /// shape (triangles use the square-root warp, pbrt-v4 §A.5.5).
     #[inline]
@@ -54,6 +60,8 @@ pub enum Light {
         center: Vec3,
         radius: f32,
         radiance: Vec3,
+        /// Index of the sphere in the scene's spheres.
+        sphere: u32,
     },
     /// Uniform radiance arriving from the world's +Y hemisphere.
     Ambient {

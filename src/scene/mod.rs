@@ -299,13 +299,14 @@ impl Scene {
     /// Adds a light for every triangle and sphere whose material emits, so
     /// that light sampling sees the same emitters as hemisphere sampling.
     pub fn add_emitter_lights(&mut self) {
-        for s in &self.spheres {
+        for (i, s) in self.spheres.iter().enumerate() {
             let radiance = self.materials[s.material as usize].emission();
             if radiance != Vec3::ZERO {
                 self.lights.push(Light::Sphere {
                     center: s.center,
                     radius: s.radius,
                     radiance,
+                    sphere: i as u32,
                 });
             }
         }
@@ -324,8 +325,27 @@ impl Scene {
                 normal: unit(n),
                 radiance,
                 area: (0.5 * n.as_dvec3().length()) as f32,
+                surface: i as u32,
             }));
         }
+    }
+
+    /// Which light each emitting primitive is the surface of: `(primitive,
+    /// index into lights)` for emissive triangles and spheres and the
+    /// rectangles of area lights.
+    pub fn light_surfaces(&self) -> Vec<(u32, usize)> {
+        let mut out = Vec::new();
+        for (i, l) in self.lights.iter().enumerate() {
+            match *l {
+                Light::Area(a) if a.surface != AreaLight::NO_SURFACE => {
+                    let count = if a.triangle { 1 } else { 2 };
+                    out.extend((a.surface..a.surface + count).map(|p| (p, i)));
+                }
+                Light::Sphere { sphere, .. } => out.push((self.mesh.len() as u32 + sphere, i)),
+                _ => {}
+            }
+        }
+        out
     }
 
     /// The material of primitive `prim`.

@@ -129,6 +129,7 @@ impl<'a, 'input> Loader<'a, 'input> {
                     normal,
                     radiance: color,
                     area: area as f32,
+                    surface: AreaLight::NO_SURFACE,
                 })
             }
             "point" => {
