@@ -73,9 +73,13 @@ pub struct RenderArgs {
     /// Render one cell of the image only; the output holds just the cell.
     #[arg(short = 'p', num_args = 4, value_names = ["X", "Y", "DX", "DY"])]
     pub cell: Option<Vec<u32>>,
-    /// Direct lighting by uniform hemisphere sampling (default: light sampling).
-    #[arg(short = 'H')]
+    /// Direct lighting by uniform hemisphere sampling (`--estimator hemisphere`).
+    #[arg(short = 'H', conflicts_with = "estimator")]
     pub hemisphere: bool,
+    /// Direct lighting: multiple importance sampling of lights and BSDF,
+    /// light sampling only, or uniform hemisphere sampling.
+    #[arg(long, value_parser = choice::<DirectEstimator>(), default_value = DirectEstimator::default().name())]
+    pub estimator: DirectEstimator,
     /// Samples per area light (or hemisphere samples with -H).
     #[arg(short = 'l', default_value_t = 1)]
     pub light_samples: u32,
@@ -215,7 +219,7 @@ impl RenderArgs {
                 estimator: if self.hemisphere {
                     DirectEstimator::Hemisphere
                 } else {
-                    DirectEstimator::LightSampling
+                    self.estimator
                 },
                 light_samples: self.light_samples,
                 max_bounces: self.max_bounces,

@@ -9,13 +9,18 @@
 //! same random numbers for the same path prefix, so the per-bounce images
 //! sum to the accumulated one.
 //!
-//! Emission is counted where it is found by a camera ray or after a
-//! specular bounce; everywhere else the direct-lighting estimator at the
-//! previous vertex has counted it already (next-event estimation).
+//! Emission found by a BSDF-sampled ray is weighted against light sampling
+//! by the power heuristic under multiple importance sampling (the default,
+//! Veach 1997); with pure light sampling it is counted only where no light
+//! sampling happened (camera rays, after specular bounces), and with
+//! hemisphere sampling direct light is whatever the hemisphere rays hit.
+//!
+//! Which directions an opaque surface scatters into is decided by its
+//! geometric normal (facing `wo`); see [`super::material`].
 
 use glam::Vec3;
 
-use super::light::{ambient_radiance, escaped_radiance, sample_li};
+use super::light::{ambient_radiance, escaped_radiance, pdf_li, sample_li, LightRef, LightSet};
 use super::material::{self, emitted, is_specular};
 use super::sampling::{uniform_hemisphere, Frame, Rng, UNIFORM_HEMISPHERE_PDF};
 use crate::accel::ray::SpawnPoint;
@@ -28,9 +33,13 @@ pub enum DirectEstimator {
     /// Uniform directions over the hemisphere, traced to whatever emits.
     Hemisphere,
     /// Points sampled on the lights, tested with shadow rays.
-    #[default]
     LightSampling,
+    /// Light sampling and BSDF sampling combined by the power heuristic.
+    #[default]
+    Mis,
 }
+
+crate::choice!(DirectEstimator { Mis => "mis", LightSampling => "light", Hemisphere => "hemisphere" });
 
 /// Which bounces an image shows.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
@@ -61,7 +70,7 @@ pub struct PathSettings {
 impl Default for PathSettings {
     fn default() -> Self {
         PathSettings {
-            estimator: DirectEstimator::LightSampling,
+            estimator: DirectEstimator::Mis,
             light_samples: 1,
             max_bounces: 1,
             accumulate: true,
@@ -100,23 +109,45 @@ pub struct Integrator<'a, A: Accel> {
     scene: &'a Scene,
     accel: &'a A,
     shading: Shading,
-    /// Lights sampled with `light_samples` samples (area, ambient) and with
-    /// one sample (delta lights).
-    sampled_lights: Vec<Light>,
-    delta_lights: Vec<Light>,
+    lights: LightSet,
     /// Radiance escaped rays see from above (sum of the ambient lights).
     ambient: Vec3,
 }
 
+/// What the next vertex needs to weigh emission it finds against light
+/// sampling at the vertex a BSDF-sampled ray left.
+#[derive(Clone, Copy)]
+struct Previous {
+    /// The ray's density under BSDF sampling; 0 after a specular event
+    /// (emission then counts fully).
+    bsdf_pdf: f32,
+    /// Where the ray left, and the geometric normal there (the ambient
+    /// light is sampled around it).
+    from: Vec3,
+    normal: Vec3,
+}
+
+/// The power heuristic weight of a strategy with density `a` (samples
+/// counted in) against one with density `b`.
+#[inline]
+fn power_heuristic(a: f32, b: f32) -> f32 {
+    let (a2, b2) = (a * a, b * b);
+    if a2 + b2 > 0.0 && (a2 + b2).is_finite() {
+        a2 / (a2 + b2)
+    } else if a.is_infinite() {
+        1.0
+    } else {
+        0.0
+    }
+}
+
 impl<'a, A: Accel> Integrator<'a, A> {
     pub fn new(scene: &'a Scene, accel: &'a A, shading: Shading) -> Self {
-        let (delta_lights, sampled_lights) = scene.lights.iter().partition(|l| l.is_delta());
         Integrator {
             scene,
             accel,
             shading,
-            sampled_lights,
-            delta_lights,
+            lights: LightSet::new(scene),
             ambient: ambient_radiance(&scene.lights),
         }
     }
@@ -127,9 +158,7 @@ impl<'a, A: Accel> Integrator<'a, A> {
             Shading::Normals => match self.accel.closest_hit(ray, counters) {
                 Some(hit) => {
                     // Shown facing the camera, as the shading sees it.
-                    let sp = self
-                        .scene
-                        .surface_point(&ray, &hit);
+                    let sp = self.scene.surface_point(ray, &hit);
                     let n = if ray.dir.dot(sp.geometric_normal) > 0.0 {
                         -sp.shading_normal
                     } else {
@@ -143,6 +172,29 @@ impl<'a, A: Accel> Integrator<'a, A> {
         }
     }
 
+    /// The light-sampling density of reaching what a BSDF-sampled ray from
+    /// `prev` found: the emitting primitive `prim` at `q` (normal
+    /// `q_normal`), or nothing (`prim` None: the ambient light along
+    /// `dir`). Counts the `-l` samples each strategy takes.
+    fn light_pdf(&self, s: &PathSettings, prev: &Previous, prim: Option<u32>, q: Vec3, q_normal: Vec3, dir: Vec3) -> f32 {
+        let n = s.light_samples.max(1) as f32;
+        match prim {
+            None => self.lights.ambient().map_or(0.0, |l| {
+                n * pdf_li(l, prev.from, prev.normal, q, q_normal, dir)
+            }),
+            Some(prim) => match self.lights.light_of(prim) {
+                Some(LightRef::Each(i)) => {
+                    n * pdf_li(&self.lights.each[i], prev.from, prev.normal, q, q_normal, dir)
+                }
+                Some(LightRef::Emitter(i)) => {
+                    n * self.lights.emitter_pmf(i)
+                        * pdf_li(&self.lights.emitters[i], prev.from, prev.normal, q, q_normal, dir)
+                }
+                None => 0.0,
+            },
+        }
+    }
+
     fn path(
         &self,
         camera_ray: &Ray,
@@ -150,23 +202,50 @@ impl<'a, A: Accel> Integrator<'a, A> {
         rng: &mut Rng,
         counters: &mut TraceCounters,
     ) -> Vec3 {
+        let mis = s.estimator == DirectEstimator::Mis;
         let mut total = Vec3::ZERO;
         let mut beta = Vec3::ONE;
         let mut ray = *camera_ray;
-        let mut specular = true;
+        // Emission is counted fully at the camera and after specular events.
+        let mut prev = Previous {
+            bsdf_pdf: 0.0,
+            from: ray.origin,
+            normal: Vec3::Y,
+        };
         let mut depth = 0u32;
         loop {
             let Some(hit) = self.accel.closest_hit(&ray, counters) else {
-                if specular && s.counts(depth) {
-                    total += beta * escaped_radiance(self.ambient, ray.dir);
+                if s.counts(depth) {
+                    let le = escaped_radiance(self.ambient, ray.dir);
+                    if prev.bsdf_pdf == 0.0 {
+                        total += beta * le;
+                    } else if mis && le != Vec3::ZERO {
+                        let light = self.light_pdf(s, &prev, None, Vec3::ZERO, Vec3::ZERO, ray.dir);
+                        total += beta * le * power_heuristic(prev.bsdf_pdf, light);
+                    }
                 }
                 break;
             };
             let sp = self.scene.surface_point(&ray, &hit);
             let m = &self.scene.materials[sp.material as usize];
             let wo = -ray.dir;
-            if specular && s.counts(depth) {
-                total += beta * emitted(m, wo.dot(sp.geometric_normal));
+            if s.counts(depth) {
+                let le = emitted(m, wo.dot(sp.geometric_normal));
+                if le != Vec3::ZERO {
+                    if prev.bsdf_pdf == 0.0 {
+                        total += beta * le;
+                    } else if mis {
+                        let light = self.light_pdf(
+                            s,
+                            &prev,
+                            Some(hit.prim),
+                            sp.position,
+                            sp.geometric_normal,
+                            ray.dir,
+                        );
+                        total += beta * le * power_heuristic(prev.bsdf_pdf, light);
+                    }
+                }
             }
             if depth >= s.max_bounces {
                 break;
@@ -179,11 +258,21 @@ impl<'a, A: Accel> Integrator<'a, A> {
             } else {
                 (sp.geometric_normal, sp.shading_normal)
             };
+            // A smooth normal can tilt away from a view that the geometric
+            // normal faces: sample on the view's side of the shading plane
+            // (which side scatters is the geometric normal's call).
+            let ns = if !dielectric && wo.dot(ns) < 0.0 { -ns } else { ns };
             let frame = Frame::new(ns);
             let wo_local = frame.to_local(wo);
             let at = SpawnPoint { ng, ..sp.spawn_point() };
+            let vertex = Vertex {
+                at: &at,
+                frame: &frame,
+                wo: wo_local,
+                m,
+            };
             if !is_specular(m) {
-                let direct = self.direct(&at, &frame, wo_local, m, s, rng, counters);
+                let direct = self.direct(&vertex, s, rng, counters);
                 if s.counts(depth + 1) {
                     total += beta * direct;
                 }
@@ -199,12 +288,21 @@ impl<'a, A: Accel> Integrator<'a, A> {
             let Some(bs) = material::sample(m, wo_local, rng) else {
                 break;
             };
+            let wi = frame.to_world(bs.wi);
+            // The geometric normal decides on which side an opaque surface
+            // scatters.
+            if !dielectric && wi.dot(ng) <= 0.0 {
+                break;
+            }
             beta *= bs.weight;
             if beta == Vec3::ZERO || !beta.is_finite() {
                 break;
             }
-            let wi = frame.to_world(bs.wi);
-            specular = bs.specular;
+            prev = Previous {
+                bsdf_pdf: if bs.specular { 0.0 } else { bs.pdf },
+                from: at.p,
+                normal: ng,
+            };
             ray = Ray::spawn(&at, wi, f32::INFINITY);
             depth += 1;
         }
@@ -213,50 +311,51 @@ impl<'a, A: Accel> Integrator<'a, A> {
 
     /// Direct lighting at a vertex: one sample per delta light, and the
     /// chosen estimator for everything else.
-    #[allow(clippy::too_many_arguments)]
-    fn direct(
-        &self,
-        at: &SpawnPoint,
-        frame: &Frame,
-        wo: Vec3,
-        m: &Material,
-        s: &PathSettings,
-        rng: &mut Rng,
-        counters: &mut TraceCounters,
-    ) -> Vec3 {
+    fn direct(&self, v: &Vertex, s: &PathSettings, rng: &mut Rng, counters: &mut TraceCounters) -> Vec3 {
         let mut sum = Vec3::ZERO;
-        for light in &self.delta_lights {
-            sum += self.light_sample(light, at, frame, wo, m, rng, counters);
+        for light in &self.lights.delta {
+            sum += self.light_sample(v, light, 1.0, None, rng, counters);
         }
         let n = s.light_samples.max(1);
+        let weighting = (s.estimator == DirectEstimator::Mis).then_some(n as f32);
         match s.estimator {
-            DirectEstimator::LightSampling => {
-                for light in &self.sampled_lights {
+            DirectEstimator::LightSampling | DirectEstimator::Mis => {
+                for light in &self.lights.each {
                     let mut acc = Vec3::ZERO;
                     for _ in 0..n {
-                        acc += self.light_sample(light, at, frame, wo, m, rng, counters);
+                        acc += self.light_sample(v, light, 1.0, weighting, rng, counters);
+                    }
+                    sum += acc / n as f32;
+                }
+                if !self.lights.emitters.is_empty() {
+                    let mut acc = Vec3::ZERO;
+                    for _ in 0..n {
+                        let (i, pmf) = self.lights.pick_emitter(rng.next_f32());
+                        let light = &self.lights.emitters[i];
+                        acc += self.light_sample(v, light, pmf, weighting, rng, counters);
                     }
                     sum += acc / n as f32;
                 }
             }
             DirectEstimator::Hemisphere => {
-                if self.sampled_lights.is_empty() {
+                let groups = self.lights.groups() as u32;
+                if groups == 0 {
                     return sum;
                 }
-                let count = n * self.sampled_lights.len() as u32;
+                // Uniform over the geometric hemisphere: exactly the
+                // directions the surface scatters into.
+                let around = Frame::new(v.at.ng);
+                let count = n * groups;
                 let mut acc = Vec3::ZERO;
                 for _ in 0..count {
-                    let (u, v) = rng.next_2d();
-                    let wi_local = uniform_hemisphere(u, v);
-                    let wi = frame.to_world(wi_local);
-                    if wi.dot(at.ng) <= 0.0 {
-                        continue;
-                    }
-                    let f = material::eval(m, wo, wi_local);
+                    let (a, b) = rng.next_2d();
+                    let wi = around.to_world(uniform_hemisphere(a, b));
+                    let wi_local = v.frame.to_local(wi);
+                    let f = material::eval(v.m, v.wo, wi_local);
                     if f == Vec3::ZERO {
                         continue;
                     }
-                    let ray = Ray::spawn(at, wi, f32::INFINITY);
+                    let ray = Ray::spawn(v.at, wi, f32::INFINITY);
                     let incoming = match self.accel.closest_hit(&ray, counters) {
                         Some(hit) => {
                             let material =
@@ -265,7 +364,7 @@ impl<'a, A: Accel> Integrator<'a, A> {
                         }
                         None => escaped_radiance(self.ambient, wi),
                     };
-                    acc += f * incoming * (wi_local.z / UNIFORM_HEMISPHERE_PDF);
+                    acc += f * incoming * (wi_local.z.abs() / UNIFORM_HEMISPHERE_PDF);
                 }
                 sum += acc / count as f32;
             }
@@ -273,33 +372,52 @@ impl<'a, A: Accel> Integrator<'a, A> {
         sum
     }
 
-    /// One light sample with its shadow ray.
-    #[allow(clippy::too_many_arguments)]
+    /// One light sample with its shadow ray: `f L |cos| / (pick p)`, times
+    /// the power-heuristic weight against BSDF sampling when `weighting`
+    /// gives the samples taken per group (the light's density is
+    /// `samples * pick * p`).
     fn light_sample(
         &self,
+        v: &Vertex,
         light: &Light,
-        at: &SpawnPoint,
-        frame: &Frame,
-        wo: Vec3,
-        m: &Material,
+        pick: f32,
+        weighting: Option<f32>,
         rng: &mut Rng,
         counters: &mut TraceCounters,
     ) -> Vec3 {
-        let Some(ls) = sample_li(light, at.p, frame.n, rng) else {
+        // The ambient light is sampled around the geometric normal: its
+        // hemisphere is exactly the directions the surface scatters into.
+        let Some(ls) = sample_li(light, v.at.p, v.at.ng, rng) else {
             return Vec3::ZERO;
         };
-        let wi_local = frame.to_local(ls.wi);
-        if wi_local.z <= 0.0 || ls.wi.dot(at.ng) <= 0.0 {
+        // The geometric normal decides which side is lit.
+        if ls.wi.dot(v.at.ng) <= 0.0 {
             return Vec3::ZERO;
         }
-        let f = material::eval(m, wo, wi_local);
+        let wi_local = v.frame.to_local(ls.wi);
+        let f = material::eval(v.m, v.wo, wi_local);
         if f == Vec3::ZERO {
             return Vec3::ZERO;
         }
-        let shadow = Ray::shadow(at, ls.wi, ls.distance);
+        let shadow = Ray::shadow(v.at, ls.wi, ls.distance);
         if self.accel.occluded(&shadow, counters) {
             return Vec3::ZERO;
         }
-        f * ls.contribution * wi_local.z
+        let weight = match weighting {
+            Some(samples) if ls.pdf.is_finite() => {
+                power_heuristic(samples * pick * ls.pdf, material::pdf(v.m, v.wo, wi_local))
+            }
+            _ => 1.0,
+        };
+        f * ls.contribution * (wi_local.z.abs() * weight / pick)
     }
+}
+
+/// A scattering vertex as direct lighting sees it: where rays leave, the
+/// shading frame, the outgoing direction in it, and the material.
+struct Vertex<'v> {
+    at: &'v SpawnPoint,
+    frame: &'v Frame,
+    wo: Vec3,
+    m: &'v Material,
 }

@@ -48,6 +48,12 @@ pub fn default_scene() -> Scene {
     .expect("default scene loads")
 }
 
+/// A scene of the project's own `dae/` folder.
+pub fn project_scene(rel: &str) -> Scene {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join(rel);
+    collada::load(&path, NormalMode::Smooth).unwrap_or_else(|e| panic!("{rel} does not load: {e}"))
+}
+
 /// Loads a shared scene or returns from the test (skip outside CI).
 macro_rules! scene_or_skip {
     ($rel:expr) => {
