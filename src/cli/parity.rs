@@ -2,7 +2,6 @@
 //! kind, and (`--hard`) the hard-case table. Exits 1 when agreement falls
 //! below the thresholds of `docs/parity.md`.
 
-
 use clap::Args;
 
 use crate::accel::BackendConfig;

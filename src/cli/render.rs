@@ -314,7 +314,9 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
     let start = Instant::now();
     let mut scene = args.input.load(normal_mode)?;
     match args.crease {
-        Some(_) if args.flat => eprintln!("hybrid: warning: --crease is ignored with --flat (every face keeps its own normal)"),
+        Some(_) if args.flat => eprintln!(
+            "hybrid: warning: --crease is ignored with --flat (every face keeps its own normal)"
+        ),
         Some(degrees) => scene.mesh.crease(degrees),
         None => {}
     }

@@ -75,12 +75,7 @@ pub fn occlusion_rays(scene: &Scene, n: usize, seed: u64) -> Vec<Ray> {
 
 /// Real hit points of camera rays, found with `reference`, as the renderer
 /// sees them (geometric normal facing the camera).
-fn surface_points<A: Accel>(
-    scene: &Scene,
-    reference: &A,
-    n: usize,
-    seed: u64,
-) -> Vec<SpawnPoint> {
+fn surface_points<A: Accel>(scene: &Scene, reference: &A, n: usize, seed: u64) -> Vec<SpawnPoint> {
     let mut counters = TraceCounters::default();
     let mut out = Vec::with_capacity(n);
     let mut attempt = 0;

@@ -216,7 +216,9 @@ pub fn write_files(files: &[(&Path, ImageFile)]) -> Result<(), FilmError> {
             };
             written.push(tmp);
             let mut out = BufWriter::new(file);
-            image.write_to(&mut out).map_err(|e| fail(path, e.to_string()))?;
+            image
+                .write_to(&mut out)
+                .map_err(|e| fail(path, e.to_string()))?;
             out.flush().map_err(|e| fail(path, e.to_string()))?;
         }
         Ok(())

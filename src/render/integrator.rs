@@ -176,7 +176,15 @@ impl<'a, A: Accel> Integrator<'a, A> {
     /// `prev` found: the emitting primitive `prim` at `q` (normal
     /// `q_normal`), or nothing (`prim` None: the ambient light along
     /// `dir`). Counts the `-l` samples each strategy takes.
-    fn light_pdf(&self, s: &PathSettings, prev: &Previous, prim: Option<u32>, q: Vec3, q_normal: Vec3, dir: Vec3) -> f32 {
+    fn light_pdf(
+        &self,
+        s: &PathSettings,
+        prev: &Previous,
+        prim: Option<u32>,
+        q: Vec3,
+        q_normal: Vec3,
+        dir: Vec3,
+    ) -> f32 {
         let n = s.light_samples.max(1) as f32;
         match prim {
             None => self.lights.ambient().map_or(0.0, |l| {
@@ -184,11 +192,25 @@ impl<'a, A: Accel> Integrator<'a, A> {
             }),
             Some(prim) => match self.lights.light_of(prim) {
                 Some(LightRef::Each(i)) => {
-                    n * pdf_li(&self.lights.each[i], prev.from, prev.normal, q, q_normal, dir)
+                    n * pdf_li(
+                        &self.lights.each[i],
+                        prev.from,
+                        prev.normal,
+                        q,
+                        q_normal,
+                        dir,
+                    )
                 }
                 Some(LightRef::Emitter(i)) => {
                     n * self.lights.emitter_pmf(i)
-                        * pdf_li(&self.lights.emitters[i], prev.from, prev.normal, q, q_normal, dir)
+                        * pdf_li(
+                            &self.lights.emitters[i],
+                            prev.from,
+                            prev.normal,
+                            q,
+                            q_normal,
+                            dir,
+                        )
                 }
                 None => 0.0,
             },
@@ -261,10 +283,17 @@ impl<'a, A: Accel> Integrator<'a, A> {
             // A smooth normal can tilt away from a view that the geometric
             // normal faces: sample on the view's side of the shading plane
             // (which side scatters is the geometric normal's call).
-            let ns = if !dielectric && wo.dot(ns) < 0.0 { -ns } else { ns };
+            let ns = if !dielectric && wo.dot(ns) < 0.0 {
+                -ns
+            } else {
+                ns
+            };
             let frame = Frame::new(ns);
             let wo_local = frame.to_local(wo);
-            let at = SpawnPoint { ng, ..sp.spawn_point() };
+            let at = SpawnPoint {
+                ng,
+                ..sp.spawn_point()
+            };
             let vertex = Vertex {
                 at: &at,
                 frame: &frame,
@@ -311,7 +340,13 @@ impl<'a, A: Accel> Integrator<'a, A> {
 
     /// Direct lighting at a vertex: one sample per delta light, and the
     /// chosen estimator for everything else.
-    fn direct(&self, v: &Vertex, s: &PathSettings, rng: &mut Rng, counters: &mut TraceCounters) -> Vec3 {
+    fn direct(
+        &self,
+        v: &Vertex,
+        s: &PathSettings,
+        rng: &mut Rng,
+        counters: &mut TraceCounters,
+    ) -> Vec3 {
         let mut sum = Vec3::ZERO;
         for light in &self.lights.delta {
             sum += self.light_sample(v, light, 1.0, None, rng, counters);

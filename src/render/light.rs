@@ -44,7 +44,13 @@ fn area_to_solid_angle(p: Vec3, q: Vec3, normal: Vec3, area: f32) -> f32 {
 
 /// The sample for point `q` (normal `normal`) drawn uniformly on an
 /// emitter of total `area`, seen from `p`.
-fn from_area_point(p: Vec3, q: Vec3, normal: Vec3, area: f32, radiance: Vec3) -> Option<LightSample> {
+fn from_area_point(
+    p: Vec3,
+    q: Vec3,
+    normal: Vec3,
+    area: f32,
+    radiance: Vec3,
+) -> Option<LightSample> {
     let pdf = area_to_solid_angle(p, q, normal, area);
     if !(pdf > 0.0) || !pdf.is_finite() {
         return None;
@@ -209,8 +215,13 @@ impl LightSet {
             .iter()
             .map(|l| match *l {
                 Light::Area(a) => luminance(a.radiance) as f64 * a.area as f64,
-                Light::Sphere { radius, radiance, .. } => {
-                    luminance(radiance) as f64 * (radius as f64).powi(2) * 4.0 * std::f64::consts::PI
+                Light::Sphere {
+                    radius, radiance, ..
+                } => {
+                    luminance(radiance) as f64
+                        * (radius as f64).powi(2)
+                        * 4.0
+                        * std::f64::consts::PI
                 }
                 _ => 0.0,
             })
@@ -220,7 +231,11 @@ impl LightSet {
         set.emitter_cdf = power
             .iter()
             .map(|p| {
-                acc += if total > 0.0 { p / total } else { 1.0 / power.len() as f64 };
+                acc += if total > 0.0 {
+                    p / total
+                } else {
+                    1.0 / power.len() as f64
+                };
                 acc as f32
             })
             .collect();
@@ -238,7 +253,10 @@ impl LightSet {
 
     /// An emitter chosen by power with `u` in [0, 1): index and probability.
     pub fn pick_emitter(&self, u: f32) -> (usize, f32) {
-        let i = self.emitter_cdf.partition_point(|&c| c <= u).min(self.emitters.len() - 1);
+        let i = self
+            .emitter_cdf
+            .partition_point(|&c| c <= u)
+            .min(self.emitters.len() - 1);
         (i, self.emitter_pmf(i))
     }
 

@@ -412,7 +412,12 @@ mod tests {
 
     #[test]
     fn erf_and_its_inverse_are_accurate() {
-        for (x, want) in [(0.1f32, 0.112_462_92f64), (0.5, 0.520_499_9), (1.0, 0.842_700_8), (2.0, 0.995_322_3)] {
+        for (x, want) in [
+            (0.1f32, 0.112_462_92f64),
+            (0.5, 0.520_499_9),
+            (1.0, 0.842_700_8),
+            (2.0, 0.995_322_3),
+        ] {
             assert!((erf(x) as f64 - want).abs() < 3e-7, "erf({x}) = {}", erf(x));
             assert!((erf(-x) as f64 + want).abs() < 3e-7);
         }
@@ -447,9 +452,18 @@ mod tests {
             if let Some(s) = sample(m, wo, &mut rng) {
                 assert!(s.wi.z > 0.0);
                 let want = eval(m, wo, s.wi) * s.wi.z / s.pdf;
-                assert!((want - s.weight).abs().max_element() <= 1e-3 * want.max_element().max(1e-3),
-                    "weight {} vs f cos / pdf {}", s.weight, want);
-                assert!((pdf(m, wo, s.wi) - s.pdf).abs() <= 1e-3 * s.pdf, "pdf {} vs {}", pdf(m, wo, s.wi), s.pdf);
+                assert!(
+                    (want - s.weight).abs().max_element() <= 1e-3 * want.max_element().max(1e-3),
+                    "weight {} vs f cos / pdf {}",
+                    s.weight,
+                    want
+                );
+                assert!(
+                    (pdf(m, wo, s.wi) - s.pdf).abs() <= 1e-3 * s.pdf,
+                    "pdf {} vs {}",
+                    pdf(m, wo, s.wi),
+                    s.pdf
+                );
                 observed[bin(s.wi)] += 1.0;
             }
         }
@@ -465,7 +479,8 @@ mod tests {
                     for b in 0..SUB_PHI {
                         let x = (ct as f64 + (a as f64 + 0.5) / SUB_X as f64) / CT as f64;
                         let c = (1.0 - x.powi(4)) as f32;
-                        let phi = 2.0 * PI * (ph as f32 + (b as f32 + 0.5) / SUB_PHI as f32) / PH as f32;
+                        let phi =
+                            2.0 * PI * (ph as f32 + (b as f32 + 0.5) / SUB_PHI as f32) / PH as f32;
                         let s = (1.0 - c * c).max(0.0).sqrt();
                         let wi = Vec3::new(s * phi.cos(), s * phi.sin(), c);
                         acc += pdf(m, wo, wi) as f64 * 4.0 * x.powi(3);
@@ -500,9 +515,21 @@ mod tests {
     fn sampling_matches_the_density_chi_square() {
         let materials = [
             Material::lambertian(Vec3::splat(0.5)),
-            Material::Microfacet { alpha: 0.05, eta: Vec3::splat(0.2), k: Vec3::splat(3.0) },
-            Material::Microfacet { alpha: 0.25, eta: Vec3::splat(0.2), k: Vec3::splat(3.0) },
-            Material::Microfacet { alpha: 0.7, eta: Vec3::splat(0.2), k: Vec3::splat(3.0) },
+            Material::Microfacet {
+                alpha: 0.05,
+                eta: Vec3::splat(0.2),
+                k: Vec3::splat(3.0),
+            },
+            Material::Microfacet {
+                alpha: 0.25,
+                eta: Vec3::splat(0.2),
+                k: Vec3::splat(3.0),
+            },
+            Material::Microfacet {
+                alpha: 0.7,
+                eta: Vec3::splat(0.2),
+                k: Vec3::splat(3.0),
+            },
         ];
         for m in &materials {
             for theta in [0.0f32, 0.6, 1.2, 1.5] {
@@ -523,7 +550,10 @@ mod tests {
                     "{m:?} at θ {theta}: density integrates to {integral}, {accepted} of draws give a direction"
                 );
                 if matches!(m, Material::Lambertian { .. }) {
-                    assert!((integral - 1.0).abs() < 1e-3, "Lambertian density integrates to {integral}");
+                    assert!(
+                        (integral - 1.0).abs() < 1e-3,
+                        "Lambertian density integrates to {integral}"
+                    );
                 }
             }
         }

@@ -140,9 +140,10 @@ impl SceneBuilder {
         }
         scene.add_emitter_lights();
         if scene.primitive_count() == 0 {
-            scene
-                .warnings
-                .push(format!("{}: the scene has no geometry: every ray misses", scene.name));
+            scene.warnings.push(format!(
+                "{}: the scene has no geometry: every ray misses",
+                scene.name
+            ));
         }
         if scene.lights.is_empty() {
             scene.warnings.push(format!(
@@ -215,7 +216,11 @@ impl SceneBuilder {
                     intensity,
                 } => {
                     *position = v(*position);
-                    *intensity = Vec3::new(square(intensity.x), square(intensity.y), square(intensity.z));
+                    *intensity = Vec3::new(
+                        square(intensity.x),
+                        square(intensity.y),
+                        square(intensity.z),
+                    );
                 }
                 _ => {}
             }

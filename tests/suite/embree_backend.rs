@@ -233,7 +233,10 @@ fn the_default_render_has_no_junction_pixels_only_one_backend_darkens() {
             let accel = config.build(&scene).expect("builds");
             let film = render(&scene, &accel, &settings, &Silent).film;
             let rgb = film.to_rgb8(hybrid::render::film::ToneMap::Reference);
-            (config.label(), rgb.chunks(3).map(|p| [p[0], p[1], p[2]]).collect())
+            (
+                config.label(),
+                rgb.chunks(3).map(|p| [p[0], p[1], p[2]]).collect(),
+            )
         })
         .collect();
     let black = |p: &[u8; 3]| *p == [0, 0, 0];

@@ -164,7 +164,9 @@ fn huge_scenes_render_alike_on_both_backends() {
     let plain = scene(&dir, "plain.dae", scaled("1"));
     for mode in [&["--normals"][..], &["-m", "2", "-s", "4"][..]] {
         let render = |file: &str, accel: &str, out: &str| {
-            let mut args = vec!["render", "-r", "64", "48", "--accel", accel, "-f", out, file];
+            let mut args = vec![
+                "render", "-r", "64", "48", "--accel", accel, "-f", out, file,
+            ];
             args.extend_from_slice(mode);
             renders(&dir, &args, out, &[]);
             pixels(&dir.join(out))
@@ -175,9 +177,15 @@ fn huge_scenes_render_alike_on_both_backends() {
             let native = render(&file, "native", "native.png");
             let embree = render(&file, "embree", "embree.png");
             let d = differing(&native, &embree);
-            assert!(d <= 0.002, "{factor} {mode:?}: native and Embree differ on {d:.4} of pixels");
+            assert!(
+                d <= 0.002,
+                "{factor} {mode:?}: native and Embree differ on {d:.4} of pixels"
+            );
             let d = differing(&native, &reference);
-            assert!(d <= 0.002, "{factor} {mode:?}: differs from the unscaled scene on {d:.4}");
+            assert!(
+                d <= 0.002,
+                "{factor} {mode:?}: differs from the unscaled scene on {d:.4}"
+            );
         }
     }
     let overflowing = scene(&dir, "overflow.dae", |t| {
@@ -187,7 +195,15 @@ fn huge_scenes_render_alike_on_both_backends() {
             1,
         )
     });
-    fails(&dir, &["render", "-f", "o.png", &overflowing], &["overflow.dae:", "<node id=\"floor-node\">", "floating-point range"]);
+    fails(
+        &dir,
+        &["render", "-f", "o.png", &overflowing],
+        &[
+            "overflow.dae:",
+            "<node id=\"floor-node\">",
+            "floating-point range",
+        ],
+    );
 }
 
 /// Class 2: nesting deep enough to overflow a recursive parser's stack is
@@ -208,15 +224,27 @@ fn deep_nesting_is_an_error_not_a_stack_overflow() {
             1,
         )
     });
-    fails(&dir, &["render", "-f", "o.png", &nodes], &["nodes.dae:", "nested more than"]);
+    fails(
+        &dir,
+        &["render", "-f", "o.png", &nodes],
+        &["nodes.dae:", "nested more than"],
+    );
     let elements = scene(&dir, "elements.dae", |t| {
         t.replacen(
             "<library_cameras>",
-            &format!("<asset>{}{}</asset><library_cameras>", "<x>".repeat(depth), "</x>".repeat(depth)),
+            &format!(
+                "<asset>{}{}</asset><library_cameras>",
+                "<x>".repeat(depth),
+                "</x>".repeat(depth)
+            ),
             1,
         )
     });
-    fails(&dir, &["render", "-f", "o.png", &elements], &["elements.dae:", "nested more than"]);
+    fails(
+        &dir,
+        &["render", "-f", "o.png", &elements],
+        &["elements.dae:", "nested more than"],
+    );
 }
 
 /// Class 3: offsets, counts and strides near 2^64 are errors, checked
@@ -225,12 +253,42 @@ fn deep_nesting_is_an_error_not_a_stack_overflow() {
 fn huge_counts_and_offsets_are_errors() {
     let dir = common::scratch("hostile-counts");
     let cases: &[(&str, &str, &str, &str)] = &[
-        ("offset.dae", "offset=\"0\"/>", "offset=\"18446744073709551615\"/>", "offset"),
-        ("accessor.dae", "count=\"4\" stride=\"3\"", "count=\"2305843009213693952\" stride=\"3\"", "count"),
-        ("wraps.dae", "count=\"4\" stride=\"3\"", "count=\"4611686018427387904\" stride=\"4\"", "count"),
-        ("array.dae", "count=\"12\"", "count=\"999999999999\"", "999999999999"),
-        ("polylist.dae", "<polylist count=\"1\">", "<polylist count=\"18446744073709551615\">", "18446744073709551615"),
-        ("vcount.dae", "<vcount>4</vcount>", "<vcount>4611686018427387904</vcount>", "<vcount>"),
+        (
+            "offset.dae",
+            "offset=\"0\"/>",
+            "offset=\"18446744073709551615\"/>",
+            "offset",
+        ),
+        (
+            "accessor.dae",
+            "count=\"4\" stride=\"3\"",
+            "count=\"2305843009213693952\" stride=\"3\"",
+            "count",
+        ),
+        (
+            "wraps.dae",
+            "count=\"4\" stride=\"3\"",
+            "count=\"4611686018427387904\" stride=\"4\"",
+            "count",
+        ),
+        (
+            "array.dae",
+            "count=\"12\"",
+            "count=\"999999999999\"",
+            "999999999999",
+        ),
+        (
+            "polylist.dae",
+            "<polylist count=\"1\">",
+            "<polylist count=\"18446744073709551615\">",
+            "18446744073709551615",
+        ),
+        (
+            "vcount.dae",
+            "<vcount>4</vcount>",
+            "<vcount>4611686018427387904</vcount>",
+            "<vcount>",
+        ),
     ];
     for (name, from, to, needle) in cases {
         let file = scene(&dir, name, |t| t.replacen(from, to, 1));
@@ -244,22 +302,63 @@ fn huge_counts_and_offsets_are_errors() {
 #[test]
 fn oversized_and_irregular_files_are_refused() {
     let dir = common::scratch("hostile-files");
-    let bloated = scene(&dir, "bloated.dae", |t| t.replacen("count=\"12\"", "count=\"400000000\"", 1));
-    fails(&dir, &["render", "-f", "o.png", &bloated], &["bloated.dae:", "400000000"]);
+    let bloated = scene(&dir, "bloated.dae", |t| {
+        t.replacen("count=\"12\"", "count=\"400000000\"", 1)
+    });
+    fails(
+        &dir,
+        &["render", "-f", "o.png", &bloated],
+        &["bloated.dae:", "400000000"],
+    );
 
     let big = scene(&dir, "big.dae", |t| {
-        t.replacen("<library_cameras>", &format!("<!--{}--><library_cameras>", " ".repeat(3 << 20)), 1)
+        t.replacen(
+            "<library_cameras>",
+            &format!("<!--{}--><library_cameras>", " ".repeat(3 << 20)),
+            1,
+        )
     });
-    fails(&dir, &["render", "--max-scene-mb", "2", "-f", "o.png", &big], &["big.dae", "--max-scene-mb"]);
-    renders(&dir, &["render", "--max-scene-mb", "4", "-r", "8", "6", "-f", "o.png", &big], "o.png", &[]);
+    fails(
+        &dir,
+        &["render", "--max-scene-mb", "2", "-f", "o.png", &big],
+        &["big.dae", "--max-scene-mb"],
+    );
+    renders(
+        &dir,
+        &[
+            "render",
+            "--max-scene-mb",
+            "4",
+            "-r",
+            "8",
+            "6",
+            "-f",
+            "o.png",
+            &big,
+        ],
+        "o.png",
+        &[],
+    );
     std::fs::remove_file(dir.join("o.png")).unwrap();
 
-    fails(&dir, &["render", "-f", "o.png", "/dev/zero"], &["/dev/zero", "not a regular file"]);
-    fails(&dir, &["render", "-f", "o.png", "."], &["not a regular file"]);
+    fails(
+        &dir,
+        &["render", "-f", "o.png", "/dev/zero"],
+        &["/dev/zero", "not a regular file"],
+    );
+    fails(
+        &dir,
+        &["render", "-f", "o.png", "."],
+        &["not a regular file"],
+    );
     let fifo = dir.join("fifo.dae");
     let made = Command::new("mkfifo").arg(&fifo).status().expect("mkfifo");
     assert!(made.success());
-    fails(&dir, &["render", "-f", "o.png", fifo.to_str().unwrap()], &["fifo.dae", "not a regular file"]);
+    fails(
+        &dir,
+        &["render", "-f", "o.png", fifo.to_str().unwrap()],
+        &["fifo.dae", "not a regular file"],
+    );
 }
 
 /// The 1-based line of byte `at` of the tiny scene.
@@ -275,7 +374,11 @@ fn errors_name_the_right_place() {
     let cut = TINY.find("<node id=\"floor-node\">").unwrap();
     let last_line = line_of(cut);
     std::fs::write(dir.join("cut.dae"), &TINY[..cut]).unwrap();
-    fails(&dir, &["render", "-f", "o.png", "cut.dae"], &[&format!("cut.dae:{last_line}:")]);
+    fails(
+        &dir,
+        &["render", "-f", "o.png", "cut.dae"],
+        &[&format!("cut.dae:{last_line}:")],
+    );
 
     // Not UTF-8: the line and column of the first bad byte.
     let mut bytes = TINY.as_bytes().to_vec();
@@ -283,10 +386,20 @@ fn errors_name_the_right_place() {
     bytes.insert(at, 0xff);
     let line = line_of(at);
     std::fs::write(dir.join("latin.dae"), bytes).unwrap();
-    fails(&dir, &["render", "-f", "o.png", "latin.dae"], &[&format!("latin.dae:{line}:"), "UTF-8"]);
+    fails(
+        &dir,
+        &["render", "-f", "o.png", "latin.dae"],
+        &[&format!("latin.dae:{line}:"), "UTF-8"],
+    );
 
-    let flat = scene(&dir, "aspect.dae", |t| t.replacen("<aspect_ratio>1.333", "<aspect_ratio>0", 1));
-    fails(&dir, &["render", "-f", "o.png", &flat], &["<aspect_ratio>", "aspect.dae:"]);
+    let flat = scene(&dir, "aspect.dae", |t| {
+        t.replacen("<aspect_ratio>1.333", "<aspect_ratio>0", 1)
+    });
+    fails(
+        &dir,
+        &["render", "-f", "o.png", &flat],
+        &["<aspect_ratio>", "aspect.dae:"],
+    );
 
     // A singular light placement is reported at the node, not the library.
     let squashed = scene(&dir, "light.dae", |t| {
@@ -310,7 +423,12 @@ fn errors_name_the_right_place() {
 fn oddities_load_with_one_warning_each() {
     let dir = common::scratch("hostile-warnings");
     let render = |file: &str, warnings: &[&str]| {
-        renders(&dir, &["render", "-r", "16", "12", "-f", "o.png", file], "o.png", warnings)
+        renders(
+            &dir,
+            &["render", "-r", "16", "12", "-f", "o.png", file],
+            "o.png",
+            warnings,
+        )
     };
     let twice = scene(&dir, "ids.dae", |t| {
         t.replacen(
@@ -353,10 +471,20 @@ fn oddities_load_with_one_warning_each() {
 #[test]
 fn huge_resolutions_cost_only_their_cell() {
     let dir = common::scratch("hostile-resolution");
-    let args = ["render", "-r", "32768", "32768", "-p", "100", "200", "3", "2", "-f", "cell.png"];
+    let args = [
+        "render", "-r", "32768", "32768", "-p", "100", "200", "3", "2", "-f", "cell.png",
+    ];
     renders(&dir, &args, "cell.png", &[]);
-    assert_eq!(pixels(&dir.join("cell.png")).len(), 6, "the output holds the 3 x 2 cell");
-    fails(&dir, &["render", "-r", "32768", "32768", "-f", "o.png"], &["32768 x 32768", "-p"]);
+    assert_eq!(
+        pixels(&dir.join("cell.png")).len(),
+        6,
+        "the output holds the 3 x 2 cell"
+    );
+    fails(
+        &dir,
+        &["render", "-r", "32768", "32768", "-f", "o.png"],
+        &["32768 x 32768", "-p"],
+    );
 }
 
 /// Class 6: the hard cases on a mesh without shared edges leave its edge
@@ -373,7 +501,11 @@ fn hard_parity_on_a_mesh_without_shared_edges() {
     });
     let o = run(&dir, &["parity", "--hard", "--rays", "100", &balls]);
     assert!(matches!(o.code, Some(0 | 1)), "{}", o.describe());
-    assert!(o.stdout.contains("note: ") && o.stdout.contains("share an edge"), "{}", o.describe());
+    assert!(
+        o.stdout.contains("note: ") && o.stdout.contains("share an edge"),
+        "{}",
+        o.describe()
+    );
     assert!(!o.stderr.contains("panicked"), "{}", o.describe());
 }
 
@@ -386,22 +518,38 @@ fn bad_command_lines_fail_at_once_in_one_line() {
     std::fs::create_dir(dir.join("folder.png")).unwrap();
     let cases: &[(&[&str], &[&str])] = &[
         (&["render", "-t", "2000"], &["-t 2000", "at most"]),
-        (&["render", "-s", "100000", "-f", "missing/o.png"], &["missing/o.png"]),
-        (&["render", "-s", "100000", "-f", "folder.png"], &["folder.png", "directory"]),
+        (
+            &["render", "-s", "100000", "-f", "missing/o.png"],
+            &["missing/o.png"],
+        ),
+        (
+            &["render", "-s", "100000", "-f", "folder.png"],
+            &["folder.png", "directory"],
+        ),
         (&["render", "--bogus"], &["--bogus", "--help"]),
         (&["render", "-r", "5"], &["-r <W> <H>"]),
-        (&["render", "--accel", "optix"], &["optix", "native, embree"]),
+        (
+            &["render", "--accel", "optix"],
+            &["optix", "native, embree"],
+        ),
         (&["render", "-s", "many"], &["many", "-s"]),
         (&["frobnicate"], &["frobnicate"]),
     ];
     for (args, needles) in cases {
         fails(&dir, args, needles);
         let o = run(&dir, args);
-        assert!(o.stdout.is_empty(), "{args:?} did work before failing: {}", o.describe());
+        assert!(
+            o.stdout.is_empty(),
+            "{args:?} did work before failing: {}",
+            o.describe()
+        );
     }
     let help = run(&dir, &["render", "--help"]);
     assert_eq!(help.code, Some(0));
-    assert!(help.stdout.lines().count() > 10, "help is still the full help");
+    assert!(
+        help.stdout.lines().count() > 10,
+        "help is still the full help"
+    );
 }
 
 /// Class 8: with adaptive sampling the image and its sample-rate image are
@@ -409,7 +557,9 @@ fn bad_command_lines_fail_at_once_in_one_line() {
 #[test]
 fn adaptive_writes_both_images_or_neither() {
     let dir = common::scratch("hostile-adaptive");
-    let args = ["render", "-r", "16", "12", "-s", "8", "-a", "4", "0.1", "-f", "o.png"];
+    let args = [
+        "render", "-r", "16", "12", "-s", "8", "-a", "4", "0.1", "-f", "o.png",
+    ];
     renders(&dir, &args, "o.png", &[]);
     assert!(dir.join("o_rate.png").is_file());
     std::fs::remove_file(dir.join("o.png")).unwrap();
@@ -519,7 +669,9 @@ fn an_area_light_on_emissive_geometry_is_not_doubled() {
     let file = scene(&dir, "panel.dae", with_emissive_panel("3 3 3"));
     // Hemisphere sampling: direct light is whatever the rays hit.
     let render = |accel: &str, out: &str| {
-        let args = ["render", "-r", "64", "48", "-s", "16", "-H", "--accel", accel, "-f", out, &file];
+        let args = [
+            "render", "-r", "64", "48", "-s", "16", "-H", "--accel", accel, "-f", out, &file,
+        ];
         let stderr = renders(&dir, &args, out, &["panel.dae", "emissive triangles"]);
         assert_eq!(stderr.lines().count(), 1, "{stderr}");
         pixels(&dir.join(out))

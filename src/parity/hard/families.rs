@@ -105,7 +105,12 @@ fn aimed_rays(
 /// Closed meshes (icosphere, cube, and a scanned mesh when given) hit
 /// exactly at shared edges and vertices, from inside and outside. A
 /// scanned mesh without shared edges gets a note instead of a case.
-pub fn closed_meshes(n: usize, seed: u64, scanned: Option<&Scene>, notes: &mut Vec<String>) -> Vec<Case> {
+pub fn closed_meshes(
+    n: usize,
+    seed: u64,
+    scanned: Option<&Scene>,
+    notes: &mut Vec<String>,
+) -> Vec<Case> {
     let mut cases = Vec::new();
     let (sp, st) = icosphere(4);
     cases.extend(aimed_rays(
@@ -428,7 +433,10 @@ pub fn junctions(n: usize, seed: u64) -> Vec<Case> {
         let target = positions[a as usize].lerp(positions[b as usize], rng.next_f32());
         let origin = inside(&mut rng, 0.9);
         let dir = target - origin;
-        aimed.push((Ray::new(origin, dir.normalize()), Expect::HitBy(dir.length())));
+        aimed.push((
+            Ray::new(origin, dir.normalize()),
+            Expect::HitBy(dir.length()),
+        ));
         pairs.push(Some((t1, t2)));
     }
     let finder = BackendConfig::NATIVE_WATERTIGHT

@@ -191,7 +191,9 @@ impl<'a, 'input> Loader<'a, 'input> {
             None
         };
         let corners = match &listed {
-            Some(v) => v.iter().try_fold(0usize, |acc, &n| acc.checked_add(n as usize)),
+            Some(v) => v
+                .iter()
+                .try_fold(0usize, |acc, &n| acc.checked_add(n as usize)),
             None => count.checked_mul(3),
         };
         let expected = corners.and_then(|c| c.checked_mul(stride));

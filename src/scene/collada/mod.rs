@@ -67,7 +67,11 @@ pub fn load(path: &Path, normal_mode: NormalMode) -> Result<Scene, LoadError> {
 
 /// Loads a scene file of at most `max_bytes`. Only regular files are read
 /// (a FIFO would block, a device never end), and never more than the limit.
-pub fn load_limited(path: &Path, normal_mode: NormalMode, max_bytes: u64) -> Result<Scene, LoadError> {
+pub fn load_limited(
+    path: &Path,
+    normal_mode: NormalMode,
+    max_bytes: u64,
+) -> Result<Scene, LoadError> {
     let file = path.display().to_string();
     let io = |source| LoadError::Io {
         file: file.clone(),
@@ -103,7 +107,10 @@ pub fn load_limited(path: &Path, normal_mode: NormalMode, max_bytes: u64) -> Res
             file: file.clone(),
             line,
             column,
-            message: format!("not UTF-8 text (invalid byte 0x{:02x})", e.as_bytes()[valid]),
+            message: format!(
+                "not UTF-8 text (invalid byte 0x{:02x})",
+                e.as_bytes()[valid]
+            ),
         }
     })?;
     load_str(&text, &file, normal_mode)
@@ -190,7 +197,9 @@ pub fn load_str(text: &str, file: &str, normal_mode: NormalMode) -> Result<Scene
         // The parser reports an early end of the text at its start; the
         // place to look is where the text ends.
         let (line, column) = match e {
-            roxmltree::Error::UnexpectedEndOfStream | roxmltree::Error::UnclosedRootNode => line_column(text.as_bytes()),
+            roxmltree::Error::UnexpectedEndOfStream | roxmltree::Error::UnclosedRootNode => {
+                line_column(text.as_bytes())
+            }
             _ => (e.pos().row, e.pos().col),
         };
         LoadError::Xml {
@@ -223,7 +232,9 @@ impl<'a, 'input> Loader<'a, 'input> {
         let mut builder = SceneBuilder::new(file);
         let mut ids: HashMap<&'a str, Node<'a, 'input>> = HashMap::new();
         for n in doc.descendants().filter(|n| n.is_element()) {
-            let Some(id) = n.attribute("id") else { continue };
+            let Some(id) = n.attribute("id") else {
+                continue;
+            };
             if let Some(first) = ids.insert(id, n) {
                 let line = |n: Node| doc.text_pos_at(n.range().start).row;
                 builder.warn(format!(
@@ -334,7 +345,9 @@ impl<'a, 'input> Loader<'a, 'input> {
                         v.push(1.0);
                     }
                     if v.len() != 16 {
-                        return Err(self.error(c, format!("{} numbers where 16 are expected", v.len())));
+                        return Err(
+                            self.error(c, format!("{} numbers where 16 are expected", v.len()))
+                        );
                     }
                     local * Mat4::from_cols_slice(&v).transpose()
                 }

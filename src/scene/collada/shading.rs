@@ -135,7 +135,10 @@ impl<'a, 'input> Loader<'a, 'input> {
             "point" => {
                 let position = at(Vec3::ZERO);
                 if !position.is_finite() {
-                    return Err(self.error(node, "the node's transform puts the point light beyond the floating-point range"));
+                    return Err(self.error(
+                        node,
+                        "the node's transform puts the point light beyond the floating-point range",
+                    ));
                 }
                 Light::Point {
                     position,
