@@ -24,12 +24,7 @@ use clap::error::ErrorKind;
 use clap::{Parser, Subcommand};
 
 use crate::choice::Choice;
-use crate::scene::{collada, NormalMode, Scene};
-
-/// The project's own default scene (`dae/cornell.dae`), built into the
-/// binary so `hybrid render` works from any directory.
-pub const DEFAULT_SCENE: &str = include_str!("../../dae/cornell.dae");
-pub const DEFAULT_SCENE_NAME: &str = "dae/cornell.dae";
+use crate::scene::{builtin, collada, NormalMode, Scene};
 
 #[derive(Parser, Debug)]
 #[command(
@@ -74,7 +69,10 @@ pub fn main() -> i32 {
     let cli = match Cli::try_parse() {
         Ok(cli) => cli,
         // Help and version as clap prints them; `hybrid` alone shows help.
-        Err(e) if !e.use_stderr() || e.kind() == ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand => {
+        Err(e)
+            if !e.use_stderr()
+                || e.kind() == ErrorKind::DisplayHelpOnMissingArgumentOrSubcommand =>
+        {
             let _ = e.print();
             return if e.use_stderr() { 2 } else { 0 };
         }
@@ -141,7 +139,7 @@ impl SceneInput {
     pub fn load(&self, normals: NormalMode) -> Result<Scene, String> {
         let scene = match &self.scene {
             Some(p) => collada::load_limited(p, normals, self.max_scene_mb.saturating_mul(1 << 20)),
-            None => collada::load_str(DEFAULT_SCENE, DEFAULT_SCENE_NAME, normals),
+            None => builtin::CORNELL.load(normals),
         }
         .map_err(|e| e.to_string())?;
         for warning in &scene.warnings {

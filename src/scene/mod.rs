@@ -7,6 +7,7 @@
 //! every backend.
 
 pub mod builder;
+pub mod builtin;
 pub mod collada;
 pub mod generate;
 mod light;
@@ -98,7 +99,10 @@ impl TriangleMesh {
                 sums[*v as usize] += n;
             }
         }
-        self.normals = sums.iter().map(|n| n.normalize_or_zero().as_vec3()).collect();
+        self.normals = sums
+            .iter()
+            .map(|n| n.normalize_or_zero().as_vec3())
+            .collect();
     }
 
     /// Smooth normals that stop at creases: each corner of a triangle
@@ -372,7 +376,11 @@ impl Scene {
             let u = hit.u.clamp(0.0, 1.0);
             let v = hit.v.clamp(0.0, 1.0 - u);
             let w = (1.0 - u - v).max(0.0);
-            let size = (b - a).abs().max((c - a).abs()).max((c - b).abs()).max_element();
+            let size = (b - a)
+                .abs()
+                .max((c - a).abs())
+                .max((c - b).abs())
+                .max_element();
             let margin = gamma(TEST_ULPS) * size;
             // A hit on an edge lies on the neighbour's plane too (a floor
             // meeting a wall): step it into the triangle, towards the
@@ -392,8 +400,8 @@ impl Scene {
             // leaving the plane is off by a few ulps of the triangle's
             // size, so a ray must start farther off than that not to find
             // its own triangle again at t ~ 0.
-            let error = gamma(9) * ((a * w).abs() + (b * u).abs() + (c * v).abs())
-                + Vec3::splat(margin);
+            let error =
+                gamma(9) * ((a * w).abs() + (b * u).abs() + (c * v).abs()) + Vec3::splat(margin);
             let ng = unit(self.mesh.face_normal(p));
             let ns = match self.normal_mode {
                 NormalMode::Flat => ng,

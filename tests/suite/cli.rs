@@ -85,7 +85,7 @@ fn no_argument_renders_the_default_scene() {
 fn bad_input_exits_2_with_one_line_and_no_image() {
     let dir = common::scratch("cli-bad");
     let broken = dir.join("broken.dae");
-    std::fs::write(&broken, &hybrid::cli::DEFAULT_SCENE[..2000]).unwrap();
+    std::fs::write(&broken, &hybrid::scene::builtin::CORNELL.text[..2000]).unwrap();
     let cases: Vec<(Vec<&str>, &str)> = vec![
         (
             vec!["render", "-f", "out.png", "missing.dae"],

@@ -2,7 +2,7 @@
 
 use std::path::PathBuf;
 
-use hybrid::scene::{collada, NormalMode, Scene};
+use hybrid::scene::{builtin, collada, NormalMode, Scene};
 
 /// The shared scenes folder, or `None` (with the reason printed) outside
 /// CI when it is missing. Under CI a missing folder is a failure.
@@ -40,18 +40,16 @@ pub fn load(rel: &str) -> Option<Scene> {
 
 /// The project's default scene.
 pub fn default_scene() -> Scene {
-    collada::load_str(
-        hybrid::cli::DEFAULT_SCENE,
-        "dae/cornell.dae",
-        NormalMode::Smooth,
-    )
-    .expect("default scene loads")
+    builtin::CORNELL
+        .load(NormalMode::Smooth)
+        .expect("default scene loads")
 }
 
-/// A scene of the project's own `dae/` folder.
-pub fn project_scene(rel: &str) -> Scene {
-    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join(rel);
-    collada::load(&path, NormalMode::Smooth).unwrap_or_else(|e| panic!("{rel} does not load: {e}"))
+/// The project's glossy scene.
+pub fn glossy_scene() -> Scene {
+    builtin::GLOSSY
+        .load(NormalMode::Smooth)
+        .expect("glossy scene loads")
 }
 
 /// Loads a shared scene or returns from the test (skip outside CI).

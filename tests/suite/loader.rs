@@ -216,8 +216,12 @@ fn the_default_scene_has_everything_it_promises() {
 
 /// Loads the default scene text after `edit`; returns the error line.
 fn error_after(edit: impl Fn(&str) -> String) -> String {
-    let text = edit(hybrid::cli::DEFAULT_SCENE);
-    assert_ne!(text, hybrid::cli::DEFAULT_SCENE, "the edit changed nothing");
+    let text = edit(hybrid::scene::builtin::CORNELL.text);
+    assert_ne!(
+        text,
+        hybrid::scene::builtin::CORNELL.text,
+        "the edit changed nothing"
+    );
     match collada::load_str(&text, "bad.dae", NormalMode::Smooth) {
         Ok(_) => panic!("a bad scene loaded"),
         Err(e) => e.to_string(),
@@ -251,7 +255,11 @@ fn bad_input_gives_one_clear_error() {
     );
     assert_mentions(
         &error_after(|t| t.replacen("count=\"12\"", "count=\"13\"", 1)),
-        &["bad.dae:", "<float_array id=\"floor-positions-array\">", "13"],
+        &[
+            "bad.dae:",
+            "<float_array id=\"floor-positions-array\">",
+            "13",
+        ],
     );
     assert_mentions(
         &error_after(|t| t.replacen("1 1.98", "1 nan", 1)),
@@ -336,7 +344,10 @@ fn the_default_cube_keeps_flat_faces() {
         let face = scene.mesh.face_normal(i).normalize();
         for v in scene.mesh.indices[i] {
             let n = scene.mesh.normals[v as usize];
-            assert!(n.dot(face) > 0.9999, "cube triangle {i}: vertex normal {n} vs face {face}");
+            assert!(
+                n.dot(face) > 0.9999,
+                "cube triangle {i}: vertex normal {n} vs face {face}"
+            );
         }
     }
 }
@@ -372,7 +383,11 @@ fn a_crease_angle_keeps_sharp_edges_and_smooth_curves() {
     for (i, corners) in sphere.mesh.corner_normals.iter().enumerate() {
         for (k, n) in corners.iter().enumerate() {
             let v = sphere.mesh.indices[i][k] as usize;
-            assert!((*n - smooth[v]).length() < 1e-5, "sphere corner {i}.{k}: {n} vs {}", smooth[v]);
+            assert!(
+                (*n - smooth[v]).length() < 1e-5,
+                "sphere corner {i}.{k}: {n} vs {}",
+                smooth[v]
+            );
         }
     }
 }
