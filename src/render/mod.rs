@@ -25,7 +25,7 @@ use rayon::prelude::*;
 use self::camera::{Camera, CameraMode};
 use self::film::Film;
 use self::integrator::{Integrator, Shading};
-use self::sampling::{luminance, Rng};
+use self::sampling::{luminance, pixel_position, Rng};
 use crate::accel::{Accel, TraceCounters};
 use crate::scene::Scene;
 
@@ -190,8 +190,12 @@ fn pixel<A: Accel>(
         for i in n..end {
             let mut rng = Rng::for_sample(settings.seed, x, y, i);
             // One sample at the pixel centre when there is one sample;
-            // random positions inside the pixel otherwise.
-            let (dx, dy) = if cap == 1 { (0.5, 0.5) } else { rng.next_2d() };
+            // positions spread evenly over the pixel otherwise.
+            let (dx, dy) = if cap == 1 {
+                (0.5, 0.5)
+            } else {
+                pixel_position(settings.seed, x, y, i)
+            };
             let ray = camera.ray(x as f32 + dx, y as f32 + dy);
             let value = integrator.radiance(&ray, &mut rng, counters);
             sum += value;
