@@ -1,10 +1,15 @@
 //! Developer tool: counts fireflies in EXR renders, pixels whose luminance
 //! exceeds 10x the median of their 5x5 neighbourhood.
 //! `cargo run --release --example fireflies -- a.exr b.exr ...`
+//! (`FACTOR=2` for another threshold, `SHOW=1` to list the pixels)
 
 use hybrid::report::fireflies::count_fireflies;
 
 fn main() {
+    let factor: f32 = std::env::var("FACTOR")
+        .ok()
+        .and_then(|f| f.parse().ok())
+        .unwrap_or(10.0);
     for path in std::env::args().skip(1) {
         let img = match image::open(&path) {
             Ok(img) => img.to_rgb32f(),
@@ -18,10 +23,15 @@ fn main() {
             .pixels()
             .map(|p| 0.2126 * p.0[0] + 0.7152 * p.0[1] + 0.0722 * p.0[2])
             .collect();
-        let n = count_fireflies(&luminance, w as usize, h as usize, 10.0);
-        println!("{path}: {n} fireflies of {} pixels", w * h);
+        let n = count_fireflies(&luminance, w as usize, h as usize, factor);
+        println!(
+            "{path}: {n} pixels over {factor}x their 5x5 median, of {}",
+            w * h
+        );
         if std::env::var_os("SHOW").is_some() {
-            let at = hybrid::report::fireflies::firefly_pixels(&luminance, w as usize, h as usize, 10.0);
+            let at = hybrid::report::fireflies::firefly_pixels(
+                &luminance, w as usize, h as usize, factor,
+            );
             println!("  {:?}", &at[..at.len().min(40)]);
         }
     }

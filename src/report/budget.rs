@@ -25,6 +25,8 @@ pub struct Budget {
     pub spp_series: Vec<u32>,
     /// Adaptive gallery: batch, tolerance, cap.
     pub adaptive_gallery: (u32, f32, u32),
+    /// Estimator gallery: spp on the glossy scene, spp on the default one.
+    pub estimator_gallery: (u32, u32),
 }
 
 impl Budget {
@@ -44,6 +46,7 @@ impl Budget {
                 gallery_spp: 4,
                 spp_series: vec![1, 4, 16, 64],
                 adaptive_gallery: (16, 0.1, 256),
+                estimator_gallery: (64, 16),
             }
         } else {
             Budget {
@@ -60,6 +63,7 @@ impl Budget {
                 gallery_spp: 64,
                 spp_series: vec![1, 2, 4, 8, 16, 64, 256, 1024],
                 adaptive_gallery: (64, 0.05, 2048),
+                estimator_gallery: (1024, 128),
             }
         }
     }
@@ -144,9 +148,6 @@ pub const BRUTE_FORCE_SCENES: [&str; 4] = [
     "meshedit/teapot.dae",
     "keenan/banana.dae",
 ];
-
-/// The scene of the speed-against-error study.
-pub const ERROR_SCENE: &str = "sky/CBspheres_lambertian.dae";
 
 /// The gallery's scenes: normal shading, and the course series.
 pub const NORMALS_SCENES: [&str; 4] = [

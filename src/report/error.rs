@@ -1,11 +1,12 @@
 //! Speed against error: RMSE against a high-sample reference as a function
-//! of render time, per compared backend and estimator (hemisphere, light
-//! sampling, adaptive).
+//! of render time on the project's glossy scene, per compared backend and
+//! direct-lighting estimator (hemisphere, light sampling, MIS, and
+//! adaptive sampling with MIS), and each estimator's RMSE at one common
+//! render time.
 
 use std::path::Path;
 
-use super::budget::{Budget, ERROR_SCENE};
-use super::load;
+use super::budget::Budget;
 use super::plot::{loglog, loglog_slope, Series};
 use super::table::{Cell, Table};
 use crate::accel::config::COMPARED;
@@ -13,7 +14,8 @@ use crate::accel::Accel;
 use crate::render::film::Film;
 use crate::render::integrator::{DirectEstimator, PathSettings, Shading};
 use crate::render::{render, Adaptive, RenderSettings, Silent};
-use crate::scene::Scene;
+use crate::scene::builtin::GLOSSY;
+use crate::scene::{NormalMode, Scene};
 
 /// One render of the study.
 pub struct ErrorPoint {
@@ -25,11 +27,40 @@ pub struct ErrorPoint {
 
 /// One line of the plot.
 pub struct ErrorSeries {
-    pub name: String,
+    pub backend: &'static str,
+    /// The estimator's label; `adaptive` marks adaptive sampling.
+    pub estimator: &'static str,
+    pub adaptive: bool,
     pub points: Vec<ErrorPoint>,
 }
 
 impl ErrorSeries {
+    pub fn name(&self) -> String {
+        if self.adaptive {
+            format!("{}, adaptive ({})", self.backend, self.estimator)
+        } else {
+            format!("{}, {}", self.backend, self.estimator)
+        }
+    }
+
+    /// RMSE at `seconds`, interpolated on log-log axes between the two
+    /// renders around it; `None` outside the series' range of times.
+    pub fn rmse_at(&self, seconds: f64) -> Option<f64> {
+        let mut points: Vec<(f64, f64)> = self.points.iter().map(|p| (p.seconds, p.rmse)).collect();
+        points.sort_by(|a, b| a.0.total_cmp(&b.0));
+        points.windows(2).find_map(|w| {
+            let ((t0, e0), (t1, e1)) = (w[0], w[1]);
+            if !(t0..=t1).contains(&seconds) || e0 <= 0.0 || e1 <= 0.0 {
+                return None;
+            }
+            if t1 <= t0 {
+                return Some(e0.min(e1));
+            }
+            let f = (seconds / t0).ln() / (t1 / t0).ln();
+            Some((e0.ln() + f * (e1 / e0).ln()).exp())
+        })
+    }
+
     /// Slope of log RMSE against log time.
     pub fn slope(&self) -> f64 {
         loglog_slope(
@@ -42,18 +73,24 @@ impl ErrorSeries {
     }
 }
 
-/// The estimators of the study: the course's two, each at uniform samples.
-const ESTIMATORS: [(&str, DirectEstimator); 2] = [
+/// The estimators of the study, each at uniform samples: the course's two
+/// and multiple importance sampling.
+const ESTIMATORS: [(&str, DirectEstimator); 3] = [
     ("hemisphere", DirectEstimator::Hemisphere),
     ("light sampling", DirectEstimator::LightSampling),
+    ("MIS", DirectEstimator::Mis),
 ];
 /// Adaptive sampling's tolerances, one render each.
 const ADAPTIVE_TOLERANCES: [f32; 5] = [0.4, 0.2, 0.1, 0.05, 0.025];
 /// Adaptive sampling's batch.
 const ADAPTIVE_BATCH: u32 = 8;
+/// Bounces of every render of the study: the glossy spheres reflect the
+/// walls, which are lit directly and by one more bounce.
+const MAX_BOUNCES: u32 = 3;
 
 pub struct ErrorStudy {
     pub scene: &'static str,
+    pub max_bounces: u32,
     pub resolution: (u32, u32),
     pub threads: usize,
     pub reference_spp: u32,
@@ -77,7 +114,7 @@ fn settings(
         seed,
         shading: Shading::Path(PathSettings {
             estimator,
-            max_bounces: 3,
+            max_bounces: MAX_BOUNCES,
             light_samples: 1,
             ..PathSettings::default()
         }),
@@ -106,8 +143,8 @@ fn point<A: Accel>(scene: &Scene, accel: &A, s: &RenderSettings, reference: &Fil
     }
 }
 
-pub fn measure(dir: &Path, budget: &Budget, threads: usize) -> Result<ErrorStudy, String> {
-    let scene = load(dir, ERROR_SCENE)?;
+pub fn measure(budget: &Budget, threads: usize) -> Result<ErrorStudy, String> {
+    let scene = GLOSSY.load(NormalMode::Smooth).map_err(|e| e.to_string())?;
     let res = budget.error_resolution;
     let backends = COMPARED
         .iter()
@@ -122,7 +159,7 @@ pub fn measure(dir: &Path, budget: &Budget, threads: usize) -> Result<ErrorStudy
             threads,
             budget.reference_spp,
             987_654,
-            DirectEstimator::LightSampling,
+            DirectEstimator::Mis,
             None,
         ),
         &Silent,
@@ -141,7 +178,9 @@ pub fn measure(dir: &Path, budget: &Budget, threads: usize) -> Result<ErrorStudy
                 })
                 .collect();
             series.push(ErrorSeries {
-                name: format!("{backend}, {label}"),
+                backend,
+                estimator: label,
+                adaptive: false,
                 points,
             });
         }
@@ -157,19 +196,22 @@ pub fn measure(dir: &Path, budget: &Budget, threads: usize) -> Result<ErrorStudy
                     threads,
                     budget.adaptive_cap,
                     1,
-                    DirectEstimator::LightSampling,
+                    DirectEstimator::Mis,
                     Some(adaptive),
                 );
                 point(&scene, accel, &s, &reference)
             })
             .collect();
         series.push(ErrorSeries {
-            name: format!("{backend}, adaptive (light sampling)"),
+            backend,
+            estimator: "MIS",
+            adaptive: true,
             points,
         });
     }
     Ok(ErrorStudy {
-        scene: ERROR_SCENE,
+        scene: GLOSSY.name,
+        max_bounces: MAX_BOUNCES,
         resolution: res,
         threads,
         reference_spp: budget.reference_spp,
@@ -189,7 +231,7 @@ pub fn points_table(study: &ErrorStudy) -> Table {
     for s in &study.series {
         for p in &s.points {
             table.row(vec![
-                Cell::Text(s.name.clone()),
+                Cell::Text(s.name()),
                 Cell::Number(p.spp, 1),
                 Cell::Number(p.seconds, 4),
                 Cell::Number(p.rmse, 4),
@@ -206,9 +248,81 @@ pub fn slopes_table(study: &ErrorStudy) -> Table {
         ("slope", "slope of log RMSE / log time"),
     ]);
     for s in &study.series {
-        table.row(vec![Cell::Text(s.name.clone()), Cell::Number(s.slope(), 2)]);
+        table.row(vec![Cell::Text(s.name()), Cell::Number(s.slope(), 2)]);
     }
     table
+}
+
+impl ErrorStudy {
+    /// The common render time of the equal-time comparison: the longest
+    /// time every uniform-sample series reached.
+    pub fn equal_time(&self) -> Option<f64> {
+        self.series
+            .iter()
+            .filter(|s| !s.adaptive)
+            .map(|s| s.points.iter().map(|p| p.seconds).fold(0.0, f64::max))
+            .min_by(f64::total_cmp)
+    }
+
+    /// RMSE at [`ErrorStudy::equal_time`] of `backend`'s uniform-sample
+    /// series with `estimator`.
+    pub fn rmse_at_equal_time(&self, backend: &str, estimator: &str) -> Option<f64> {
+        let t = self.equal_time()?;
+        self.series
+            .iter()
+            .find(|s| !s.adaptive && s.backend == backend && s.estimator == estimator)?
+            .rmse_at(t)
+    }
+}
+
+/// Each series' RMSE at the common time, and its ratio to light sampling
+/// on the same backend (below 1: lower error than light sampling).
+pub fn equal_time_table(study: &ErrorStudy) -> Table {
+    let mut table = Table::new([
+        ("series", "series"),
+        ("rmse", "RMSE at equal time"),
+        ("over_light", "over light sampling"),
+    ]);
+    let Some(t) = study.equal_time() else {
+        return table;
+    };
+    for s in &study.series {
+        let rmse = s.rmse_at(t);
+        let light = study.rmse_at_equal_time(s.backend, "light sampling");
+        table.row(vec![
+            Cell::Text(s.name()),
+            rmse.map_or(Cell::Empty, |e| Cell::Number(e, 4)),
+            match (rmse, light) {
+                (Some(e), Some(l)) => Cell::Ratio(e / l),
+                _ => Cell::Empty,
+            },
+        ]);
+    }
+    table
+}
+
+/// The headline's lines on error: MIS against the course's estimators at
+/// equal time, per backend.
+pub fn headline(study: &ErrorStudy) -> String {
+    let Some(t) = study.equal_time() else {
+        return String::new();
+    };
+    let mut md = format!(
+        "Error at equal time ({t:.2} s per render, `{}`, {} bounces, {} threads), RMSE against the reference:\n\n",
+        study.scene, study.max_bounces, study.threads
+    );
+    for backend in ["native", "embree"] {
+        let at = |e| study.rmse_at_equal_time(backend, e);
+        if let (Some(m), Some(l), Some(h)) = (at("MIS"), at("light sampling"), at("hemisphere")) {
+            md += &format!(
+                "- {backend}: MIS {m:.4}, light sampling {l:.4}, hemisphere {h:.4}: MIS has {:.2}x light sampling's error ({:.0}x less time for the same error) and {:.2}x hemisphere's.\n",
+                m / l,
+                (l / m).powi(2),
+                m / h
+            );
+        }
+    }
+    md + "\n"
 }
 
 /// Draws the study's plot into `out/speed_vs_error.svg`.
@@ -217,7 +331,7 @@ pub fn plot(study: &ErrorStudy, out: &Path) -> Result<(), String> {
         .series
         .iter()
         .map(|s| Series {
-            name: s.name.clone(),
+            name: s.name(),
             points: s.points.iter().map(|p| (p.seconds, p.rmse)).collect(),
         })
         .collect();
@@ -232,9 +346,17 @@ pub fn plot(study: &ErrorStudy, out: &Path) -> Result<(), String> {
 
 pub fn markdown(study: &ErrorStudy) -> String {
     let (w, h) = study.resolution;
+    let equal = match study.equal_time() {
+        Some(t) => format!(
+            "At equal time ({t:.2} s, the longest every uniform series reached; log-log interpolation between the renders around it):\n\n{}\n",
+            equal_time_table(study).markdown()
+        ),
+        None => String::new(),
+    };
     format!(
-        "## Speed against error\n\n`{}` at {w}x{h}, 3 bounces, one light sample, {} threads; error is the RMSE of linear radiance against a reference rendered once with {} spp (native, light sampling, another seed). Adaptive sampling uses batches of {ADAPTIVE_BATCH} up to {} spp with tolerances 0.4 .. 0.025. Each point is one render.\n\n![speed against error](speed_vs_error.svg)\n\n{}\n{}\nA Monte Carlo estimator's RMSE falls as time^-1/2 (slope -0.5); at equal time the lower line is the better estimator. The two backends trace the same paths, so their lines differ only by trace speed.\n\n",
+        "## Speed against error\n\n`{}` (the project's glossy scene: rough metal spheres of Beckmann alpha 0.025 and 0.25, a mirror sphere, an area light) at {w}x{h}, {} bounces, one light sample, {} threads; error is the RMSE of linear radiance against a reference rendered once with {} spp (native, MIS, another seed). Adaptive sampling (MIS) uses batches of {ADAPTIVE_BATCH} up to {} spp with tolerances 0.4 .. 0.025. Each point is one render.\n\n![speed against error](speed_vs_error.svg)\n\n{equal}\n{}\n{}\nA Monte Carlo estimator's RMSE falls as time^-1/2 (slope -0.5); at equal time the lower line is the better estimator, and an error ratio r is a time ratio r^2. The two backends trace the same paths, so their lines differ only by trace speed.\n\n",
         study.scene,
+        study.max_bounces,
         study.threads,
         study.reference_spp,
         study.adaptive_cap,

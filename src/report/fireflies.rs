@@ -1,6 +1,21 @@
 //! Fireflies: isolated pixels far brighter than their surroundings, the
 //! signature of rare high-weight paths.
 
+/// [`count_fireflies`] on a film's luminance.
+pub fn film_fireflies(film: &crate::render::film::Film, factor: f32) -> usize {
+    let luminance: Vec<f32> = film
+        .pixels
+        .iter()
+        .map(|&p| crate::render::sampling::luminance(p))
+        .collect();
+    count_fireflies(
+        &luminance,
+        film.width as usize,
+        film.height as usize,
+        factor,
+    )
+}
+
 /// Pixels of a `width` x `height` luminance image that exceed `factor`
 /// times the median of their 5x5 neighbourhood (clipped at the borders).
 /// A neighbourhood whose median is 0 counts any positive pixel.
@@ -9,7 +24,12 @@ pub fn count_fireflies(luminance: &[f32], width: usize, height: usize, factor: f
 }
 
 /// Where [`count_fireflies`] finds them, as `(x, y)`.
-pub fn firefly_pixels(luminance: &[f32], width: usize, height: usize, factor: f32) -> Vec<(usize, usize)> {
+pub fn firefly_pixels(
+    luminance: &[f32],
+    width: usize,
+    height: usize,
+    factor: f32,
+) -> Vec<(usize, usize)> {
     let mut out = Vec::new();
     let mut window = Vec::with_capacity(25);
     for y in 0..height {

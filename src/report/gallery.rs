@@ -1,19 +1,22 @@
 //! The gallery: the course write-up's series rendered on the native
 //! backend (normal shading, light samples, bounces, Russian roulette,
-//! samples per pixel, adaptive sampling with its rate image).
+//! samples per pixel, adaptive sampling with its rate image), and the
+//! direct-lighting estimators side by side on the project's own scenes.
 
 use std::path::Path;
 
 use image::RgbImage;
 
 use super::budget::{Budget, NORMALS_SCENES, SAMPLES_SCENE, SERIES_SCENE};
+use super::fireflies::film_fireflies;
 use super::grid::write_grid;
 use super::load;
 use crate::accel::BackendConfig;
 use crate::render::film::{rate_colour, Film, ToneMap};
-use crate::render::integrator::{PathSettings, Shading};
+use crate::render::integrator::{DirectEstimator, PathSettings, Shading};
 use crate::render::{render, Adaptive, RenderSettings, Silent};
-use crate::scene::Scene;
+use crate::scene::builtin::{Builtin, CORNELL, GLOSSY};
+use crate::scene::{NormalMode, Scene};
 
 struct Shooter {
     width: u32,
@@ -144,6 +147,8 @@ pub fn section(dir: &Path, out: &Path, budget: &Budget, threads: usize) -> Resul
             .join(", ")
     );
 
+    md += &estimators(&shooter, out, budget)?;
+
     let (batch, tolerance, cap) = budget.adaptive_gallery;
     let mut adaptive = Vec::new();
     let mut mean_spp = Vec::new();
@@ -170,4 +175,59 @@ pub fn section(dir: &Path, out: &Path, budget: &Budget, threads: usize) -> Resul
         mean_spp[0], mean_spp[1]
     );
     Ok(md)
+}
+
+/// Light sampling against MIS (and hemisphere sampling on the glossy
+/// scene) at equal samples per pixel, with each image's firefly count.
+fn estimators(shooter: &Shooter, out: &Path, budget: &Budget) -> Result<String, String> {
+    const SHOWN: [(&str, DirectEstimator); 3] = [
+        ("hemisphere", DirectEstimator::Hemisphere),
+        ("light sampling", DirectEstimator::LightSampling),
+        ("MIS", DirectEstimator::Mis),
+    ];
+    let (glossy_spp, cornell_spp) = budget.estimator_gallery;
+    let mut md = String::new();
+    for (builtin, spp, bounces, shown) in [
+        (GLOSSY, glossy_spp, 3, &SHOWN[..]),
+        (CORNELL, cornell_spp, 5, &SHOWN[1..]),
+    ] {
+        let scene = load_builtin(builtin)?;
+        let mut images = Vec::new();
+        let mut captions = Vec::new();
+        for (label, estimator) in shown {
+            let film = shooter.film(
+                &scene,
+                spp,
+                Shading::Path(PathSettings {
+                    estimator: *estimator,
+                    ..path(bounces, 1)
+                }),
+                None,
+            )?;
+            captions.push(format!(
+                "{label} ({} fireflies, {} speckles)",
+                film_fireflies(&film, 10.0),
+                film_fireflies(&film, 2.0)
+            ));
+            images.push(image(&film, ToneMap::Reference));
+        }
+        let file = format!(
+            "gallery_estimators_{}.png",
+            builtin
+                .name
+                .trim_start_matches("dae/")
+                .trim_end_matches(".dae")
+        );
+        write_grid(&out.join(&file), &images, images.len())?;
+        md += &format!(
+            "`{}` at {spp} spp, {bounces} bounces, one light sample, left to right: {}. A firefly is a pixel brighter than 10x the median of its 5x5 neighbourhood, a speckle one brighter than 2x; the fireflies left under MIS are edges of the light and of the box against the black outside, and the mirror sphere's small reflections of them; the speckles light sampling adds are walls lit through glossy surfaces, paths MIS finds by BSDF sampling.\n\n![estimators]({file})\n\n",
+            builtin.name,
+            captions.join(", ")
+        );
+    }
+    Ok(md)
+}
+
+fn load_builtin(builtin: Builtin) -> Result<Scene, String> {
+    builtin.load(NormalMode::Smooth).map_err(|e| e.to_string())
 }

@@ -90,7 +90,7 @@ pub fn run(options: &ReportOptions, log: &mut dyn FnMut(&str)) -> Result<(), Str
     }
     let brute_rows = brute::measure(&options.scenes_dir, &budget)?;
     step("brute force measured");
-    let error_study = error::measure(&options.scenes_dir, &budget, threads)?;
+    let error_study = error::measure(&budget, threads)?;
     error::plot(&error_study, out)?;
     step("speed against error measured");
     let scaling = scaling::measure(&budget)?;
@@ -116,6 +116,7 @@ pub fn run(options: &ReportOptions, log: &mut dyn FnMut(&str)) -> Result<(), Str
         budget.repeats
     );
     md += &headline::markdown(&headline, &per_scene);
+    md += &error::headline(&error_study);
     md += &scenes_md;
     md += &format!(
         "## With and without acceleration (camera rays, 1 thread)\n\n{}\n",
@@ -138,6 +139,8 @@ pub fn run(options: &ReportOptions, log: &mut dyn FnMut(&str)) -> Result<(), Str
             "scene": error_study.scene,
             "points": error::points_table(&error_study).json(),
             "slopes": error::slopes_table(&error_study).json(),
+            "equal_time_seconds": error_study.equal_time(),
+            "equal_time": error::equal_time_table(&error_study).json(),
         },
         "scaling": {
             "rows": scaling::table(&scaling).json(),

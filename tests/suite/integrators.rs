@@ -32,7 +32,16 @@ fn run(
     shading: Shading,
     camera: CameraMode,
 ) -> RenderOutput {
-    run_on(BackendConfig::NATIVE, scene, w, h, spp, seed, shading, camera)
+    run_on(
+        BackendConfig::NATIVE,
+        scene,
+        w,
+        h,
+        spp,
+        seed,
+        shading,
+        camera,
+    )
 }
 
 #[allow(clippy::too_many_arguments)]
@@ -95,7 +104,9 @@ fn white_furnace_matches_its_analytic_radiance() {
             );
             let (mean, se) = mean_and_error(&out.film);
             let on = backend.label();
-            println!("furnace {estimator:?} on {on} M={m}: {mean:.5} ± {se:.5}, analytic {expected:.5}");
+            println!(
+                "furnace {estimator:?} on {on} M={m}: {mean:.5} ± {se:.5}, analytic {expected:.5}"
+            );
             assert!(
                 (mean - expected).abs() <= 4.0 * se + 1e-4,
                 "{estimator:?} on {on} M={m}: mean {mean:.5} ± {se:.5} is not the analytic {expected:.5}"
@@ -177,9 +188,12 @@ fn every_estimator_converges_to_the_same_image() {
         estimators_agree(rel);
     }
     // The project's own: a rough gold cube and a mirror; rough metal
-    // spheres (alpha 0.025 and 0.25).
-    estimators_agree_on("dae/cornell.dae", &common::default_scene());
-    estimators_agree_on("dae/glossy.dae", &common::project_scene("dae/glossy.dae"));
+    // spheres (alpha 0.025 and 0.25). Uniform hemisphere sampling finds
+    // the light's reflection in the near-mirror sphere on rare samples
+    // only: its region means are heavy-tailed and their spread is only
+    // trustworthy over many seeds.
+    estimators_agree_on("dae/cornell.dae", &common::default_scene(), 24);
+    estimators_agree_on("dae/glossy.dae", &common::glossy_scene(), 160);
 }
 
 /// Region means over a 4 x 3 grid, over several seeds: hemisphere
@@ -187,11 +201,11 @@ fn every_estimator_converges_to_the_same_image() {
 /// agree with light sampling within their noise.
 fn estimators_agree(rel: &str) {
     let scene = scene_or_skip!(rel);
-    estimators_agree_on(rel, &scene);
+    estimators_agree_on(rel, &scene, 24);
 }
 
-fn estimators_agree_on(rel: &str, scene: &Scene) {
-    let (w, h, seeds) = (32u32, 24u32, 24u64);
+fn estimators_agree_on(rel: &str, scene: &Scene, seeds: u64) {
+    let (w, h) = (32u32, 24u32);
     let regions = |film: &Film| -> Vec<f64> {
         let mut out = vec![0.0; 12];
         for y in 0..h {
@@ -511,13 +525,26 @@ fn smooth_normals_on_a_shared_corner_cube_neither_blacken_nor_blow_up() {
             CameraMode::Node,
         )
         .film;
-        film.pixels.iter().map(|p| (p.x + p.y + p.z) as f64 / 3.0).collect::<Vec<f64>>()
+        film.pixels
+            .iter()
+            .map(|p| (p.x + p.y + p.z) as f64 / 3.0)
+            .collect::<Vec<f64>>()
     };
     let matte = Material::lambertian(Vec3::splat(0.7));
-    let (flat, smooth) = (image(matte, NormalMode::Flat), image(matte, NormalMode::Smooth));
-    let blackened = flat.iter().zip(&smooth).filter(|(f, s)| **f > 0.01 && **s == 0.0).count();
+    let (flat, smooth) = (
+        image(matte, NormalMode::Flat),
+        image(matte, NormalMode::Smooth),
+    );
+    let blackened = flat
+        .iter()
+        .zip(&smooth)
+        .filter(|(f, s)| **f > 0.01 && **s == 0.0)
+        .count();
     println!("matte: {blackened} lit pixels blackened by smooth normals");
-    assert_eq!(blackened, 0, "smooth normals blackened {blackened} lit pixels of the matte cube");
+    assert_eq!(
+        blackened, 0,
+        "smooth normals blackened {blackened} lit pixels of the matte cube"
+    );
     let glossy = Material::Microfacet {
         alpha: 0.25,
         eta: Vec3::new(0.143, 0.375, 1.442),
@@ -527,6 +554,52 @@ fn smooth_normals_on_a_shared_corner_cube_neither_blacken_nor_blow_up() {
     let lit = smooth.iter().filter(|v| **v > 0.0).count();
     let brightest = smooth.iter().cloned().fold(0.0, f64::max);
     println!("glossy: {lit} lit pixels, brightest {brightest:.3} under a light of {radiance}");
-    assert!(brightest <= radiance as f64, "a glossy pixel reached {brightest:.3}, above the light's {radiance}");
+    assert!(
+        brightest <= radiance as f64,
+        "a glossy pixel reached {brightest:.3}, above the light's {radiance}"
+    );
     assert!(smooth.iter().all(|v| v.is_finite()));
+}
+
+#[test]
+fn mis_has_far_less_error_than_light_sampling_on_the_glossy_scene() {
+    // The report measures the ratio at equal time; here the same samples
+    // per pixel (MIS costs the same rays: its BSDF sample is the path's
+    // next ray). Without MIS the near-mirror sphere's reflection of the
+    // light and the walls lit through it are fireflies.
+    let scene = common::glossy_scene();
+    let (w, h) = (64, 48);
+    let shading = |estimator| Shading::Path(path(estimator, 3));
+    let reference = run(
+        &scene,
+        w,
+        h,
+        1024,
+        77,
+        shading(DirectEstimator::Mis),
+        CameraMode::Canonical,
+    );
+    let error = |estimator, seed| {
+        let out = run(
+            &scene,
+            w,
+            h,
+            64,
+            seed,
+            shading(estimator),
+            CameraMode::Canonical,
+        );
+        common::rmse(&out.film.pixels, &reference.film.pixels)
+    };
+    for seed in [1, 2] {
+        let (mis, light) = (
+            error(DirectEstimator::Mis, seed),
+            error(DirectEstimator::LightSampling, seed),
+        );
+        eprintln!("seed {seed}: RMSE MIS {mis:.4}, light sampling {light:.4}");
+        assert!(
+            mis < 0.5 * light,
+            "seed {seed}: MIS's RMSE {mis:.4} is not under half light sampling's {light:.4}"
+        );
+    }
 }
