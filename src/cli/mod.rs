@@ -13,6 +13,7 @@ macro_rules! say {
     }};
 }
 
+mod merge;
 mod parity;
 mod render;
 mod report;
@@ -45,6 +46,8 @@ pub enum Command {
     Parity(parity::ParityArgs),
     /// Measure both backends and write the comparison report.
     Report(report::ReportArgs),
+    /// Combine partial renders (-p cells, --samples ranges) into one image.
+    Merge(merge::MergeArgs),
 }
 
 /// On SIGINT, SIGTERM or SIGHUP: remove the temporary files of any write
@@ -85,6 +88,7 @@ pub fn main() -> i32 {
         Command::Render(args) => render::run(&args).map(|()| true),
         Command::Parity(args) => parity::run(&args),
         Command::Report(args) => report::run(&args).map(|()| true),
+        Command::Merge(args) => merge::run(&args).map(|()| true),
     };
     match outcome {
         Ok(true) => 0,

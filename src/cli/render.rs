@@ -73,6 +73,10 @@ pub struct RenderArgs {
     /// Render one cell of the image only; the output holds just the cell.
     #[arg(short = 'p', num_args = 4, value_names = ["X", "Y", "DX", "DY"])]
     pub cell: Option<Vec<u32>>,
+    /// Render only samples A..B-1 of every pixel (of -s N): write .exr
+    /// parts and combine them with `hybrid merge`.
+    #[arg(long = "samples", value_name = "A..B")]
+    pub sample_range: Option<String>,
     /// Direct lighting by uniform hemisphere sampling (`--estimator hemisphere`).
     #[arg(short = 'H', conflicts_with = "estimator")]
     pub hemisphere: bool,
@@ -205,6 +209,29 @@ impl RenderArgs {
             }
             None => None,
         };
+        let sample_range = match &self.sample_range {
+            Some(text) => {
+                let range = text.split_once("..").and_then(|(a, b)| {
+                    Some((a.trim().parse::<u32>().ok()?, b.trim().parse::<u32>().ok()?))
+                });
+                match range {
+                    Some((a, b)) if a < b && b <= self.samples => {}
+                    _ => {
+                        return Err(format!(
+                            "--samples {text}: expected A..B with A < B <= {} (the -s count)",
+                            self.samples
+                        ))
+                    }
+                }
+                if self.adaptive.is_some() {
+                    return Err(format!(
+                        "--samples {text}: adaptive sampling (-a) decides per pixel how many samples to take and cannot be split by samples; split it with -p"
+                    ));
+                }
+                range
+            }
+            None => None,
+        };
         let (w, h) = cell.map_or((width, height), |c| (c.width, c.height));
         if u64::from(w) * u64::from(h) > MAX_PIXELS {
             return Err(format!(
@@ -238,6 +265,7 @@ impl RenderArgs {
             shading,
             adaptive,
             cell,
+            sample_range,
         })
     }
 
@@ -384,9 +412,12 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
         ),
         None => format!("{}x{}", settings.width, settings.height),
     };
+    let samples = match settings.sample_range {
+        Some((a, b)) => format!("samples {a}..{b} of {} spp", settings.samples),
+        None => format!("{} spp", settings.samples),
+    };
     let mut line = format!(
-        "rendered {frame} at {} spp in {:.2} s: {} rays, {:.2} Mrays/s",
-        settings.samples,
+        "rendered {frame} at {samples} in {:.2} s: {} rays, {:.2} Mrays/s",
         result.seconds,
         c.rays,
         result.mrays_per_second()

@@ -8,7 +8,9 @@ use std::io::{BufWriter, Seek, Write};
 use std::path::{Path, PathBuf};
 use std::sync::{Mutex, MutexGuard};
 
-use glam::Vec3;
+use glam::{DVec3, Vec3};
+
+use super::part::{self, Origin};
 
 /// How radiance becomes 8-bit colour.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -27,6 +29,11 @@ pub struct Film {
     pub pixels: Vec<Vec3>,
     /// Camera samples taken per pixel.
     pub samples: Vec<u32>,
+    /// Sum of the samples per pixel, in double precision: what partial
+    /// renders carry so that `hybrid merge` rebuilds the one-process image.
+    pub sums: Vec<DVec3>,
+    /// Which frame, cell and samples this film holds.
+    pub origin: Origin,
 }
 
 #[derive(Debug, thiserror::Error)]
@@ -45,6 +52,8 @@ impl Film {
             height,
             pixels: vec![Vec3::ZERO; n],
             samples: vec![0; n],
+            sums: vec![DVec3::ZERO; n],
+            origin: Origin::whole(width, height),
         }
     }
 
@@ -113,26 +122,23 @@ pub enum ImageFile<'a> {
 
 impl ImageFile<'_> {
     /// Encodes the image into `out`.
-    pub fn write_to<W: Write + Seek>(&self, out: &mut W) -> image::ImageResult<()> {
+    pub fn write_to<W: Write + Seek>(&self, out: &mut W) -> Result<(), String> {
         match *self {
             ImageFile::Radiance {
                 film,
+                map,
                 format: image::ImageFormat::OpenExr,
-                ..
-            } => {
-                let data: Vec<f32> = film.pixels.iter().flat_map(|p| [p.x, p.y, p.z]).collect();
-                image::Rgb32FImage::from_raw(film.width, film.height, data)
-                    .expect("one RGB triple per pixel")
-                    .write_to(out, image::ImageFormat::OpenExr)
+            } => part::write_exr(out, film, map),
+            ImageFile::Radiance { film, map, .. } => {
+                png(out, film, &film.to_rgb8(map)).map_err(|e| e.to_string())
             }
-            ImageFile::Radiance { film, map, .. } => png(out, film, &film.to_rgb8(map)),
             ImageFile::Rate { film, cap } => {
                 let rgb: Vec<u8> = film
                     .samples
                     .iter()
                     .flat_map(|&n| rate_colour(n as f32 / cap.max(1) as f32))
                     .collect();
-                png(out, film, &rgb)
+                png(out, film, &rgb).map_err(|e| e.to_string())
             }
         }
     }
@@ -216,9 +222,7 @@ pub fn write_files(files: &[(&Path, ImageFile)]) -> Result<(), FilmError> {
             };
             written.push(tmp);
             let mut out = BufWriter::new(file);
-            image
-                .write_to(&mut out)
-                .map_err(|e| fail(path, e.to_string()))?;
+            image.write_to(&mut out).map_err(|e| fail(path, e))?;
             out.flush().map_err(|e| fail(path, e.to_string()))?;
         }
         Ok(())

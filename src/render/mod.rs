@@ -15,16 +15,18 @@ pub mod film;
 pub mod integrator;
 pub mod light;
 pub mod material;
+pub mod part;
 pub mod sampling;
 
 use std::time::Instant;
 
-use glam::Vec3;
+use glam::{DVec3, Vec3};
 use rayon::prelude::*;
 
 use self::camera::{Camera, CameraMode};
 use self::film::Film;
 use self::integrator::{Integrator, Shading};
+use self::part::Origin;
 use self::sampling::{luminance, pixel_position, Rng};
 use crate::accel::{Accel, TraceCounters};
 use crate::scene::Scene;
@@ -59,6 +61,9 @@ pub struct RenderSettings {
     pub adaptive: Option<Adaptive>,
     /// Render only this cell: the film then holds just the cell's pixels.
     pub cell: Option<Cell>,
+    /// Render only samples `start..end` of every pixel (of `samples`):
+    /// parts of one frame that `hybrid merge` combines.
+    pub sample_range: Option<(u32, u32)>,
 }
 
 impl Default for RenderSettings {
@@ -73,6 +78,7 @@ impl Default for RenderSettings {
             shading: Shading::Normals,
             adaptive: None,
             cell: None,
+            sample_range: None,
         }
     }
 }
@@ -144,17 +150,34 @@ fn render_rows<A: Accel>(
     // Only the cell's pixels are allocated: one pixel of a 32768^2 frame
     // costs one pixel.
     let mut film = Film::new(cell.width, cell.height);
+    let cap = settings.samples.max(1);
+    film.origin = Origin {
+        frame: (w, h),
+        cell,
+        samples: settings.sample_range.unwrap_or((0, cap)),
+        total: cap,
+        seed: settings.seed,
+        adaptive: settings.adaptive.is_some(),
+    };
+    let width = cell.width as usize;
     let totals: TraceCounters = film
         .pixels
-        .par_chunks_mut(cell.width as usize)
-        .zip(film.samples.par_chunks_mut(cell.width as usize))
+        .par_chunks_mut(width)
+        .zip(film.samples.par_chunks_mut(width))
+        .zip(film.sums.par_chunks_mut(width))
         .enumerate()
-        .map(|(row_index, (row, counts))| {
+        .map(|(row_index, ((row, counts), sums))| {
             let y = cell.y + row_index as u32;
             let mut counters = TraceCounters::default();
             for (i, x) in (cell.x..cell.x + cell.width).enumerate() {
-                let (value, n) = pixel(&integrator, &camera, settings, x, y, &mut counters);
-                row[i] = value;
+                let (sum, n) = pixel(&integrator, &camera, settings, x, y, &mut counters);
+                // The one division both a single render and a merge do.
+                row[i] = if n == 0 {
+                    Vec3::ZERO
+                } else {
+                    (sum / f64::from(n)).as_vec3()
+                };
+                sums[i] = sum;
                 counts[i] = n;
             }
             progress.row_done();
@@ -171,7 +194,8 @@ fn render_rows<A: Accel>(
     }
 }
 
-/// Mean value of pixel `(x, y)` and the number of samples taken.
+/// Sum of the samples of pixel `(x, y)` (all of them, or the settings'
+/// sample range) in double precision, and the number taken.
 fn pixel<A: Accel>(
     integrator: &Integrator<A>,
     camera: &Camera,
@@ -179,15 +203,16 @@ fn pixel<A: Accel>(
     x: u32,
     y: u32,
     counters: &mut TraceCounters,
-) -> (Vec3, u32) {
+) -> (DVec3, u32) {
     let cap = settings.samples.max(1);
+    let (first, last) = settings.sample_range.unwrap_or((0, cap));
     let batch = settings.adaptive.map_or(cap, |a| a.batch.max(1));
-    let mut sum = Vec3::ZERO;
+    let mut sum = DVec3::ZERO;
     let (mut s1, mut s2) = (0.0f64, 0.0f64);
-    let mut n = 0u32;
-    while n < cap {
-        let end = (n + batch).min(cap);
-        for i in n..end {
+    let mut i = first;
+    while i < last {
+        let end = (i + batch).min(last);
+        for i in i..end {
             let mut rng = Rng::for_sample(settings.seed, x, y, i);
             // One sample at the pixel centre when there is one sample;
             // positions spread evenly over the pixel otherwise.
@@ -198,14 +223,15 @@ fn pixel<A: Accel>(
             };
             let ray = camera.ray(x as f32 + dx, y as f32 + dy);
             let value = integrator.radiance(&ray, &mut rng, counters);
-            sum += value;
+            sum += value.as_dvec3();
             let l = luminance(value) as f64;
             s1 += l;
             s2 += l * l;
         }
-        n = end;
+        i = end;
+        let n = i - first;
         if let Some(a) = settings.adaptive {
-            if n >= 2 && n < cap {
+            if n >= 2 && i < last {
                 let nf = n as f64;
                 let mean = s1 / nf;
                 let variance = ((s2 - s1 * s1 / nf) / (nf - 1.0)).max(0.0);
@@ -216,5 +242,5 @@ fn pixel<A: Accel>(
             }
         }
     }
-    (sum / n as f32, n)
+    (sum, i - first)
 }

@@ -13,3 +13,4 @@ mod integrators;
 mod loader;
 mod parity;
 mod report;
+mod split;

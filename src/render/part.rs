@@ -1,0 +1,353 @@
+//! Partial renders and their merge. Every EXR `hybrid render` writes says
+//! where it belongs: the frame's size, its cell (`-p`), its sample range
+//! (`--samples A..B` of `-s N`), the seed and the tone map, in one header
+//! attribute; and besides the mean radiance (channels R, G, B, what viewers
+//! show) it carries each pixel's sample count and the exact double-precision
+//! sum of its samples. `hybrid merge` adds the sums of the parts and divides
+//! once, so the merged image is the one a single process would have made
+//! (every sample has its own random stream, so a split changes nothing but
+//! the order of one final addition).
+
+use std::io::{Read, Seek, Write};
+use std::path::Path;
+
+use exr::prelude::{
+    read, AnyChannel, AnyChannels, AttributeValue, Encoding, FlatSamples, Image, Layer,
+    LayerAttributes, ReadChannels, ReadLayers, SmallVec, Text, WritableImage,
+};
+use glam::{DVec3, Vec3};
+
+use super::film::{Film, ToneMap};
+use super::Cell;
+
+/// The header attribute holding the [`Origin`].
+const ATTRIBUTE: &str = "hybrid.part";
+
+/// Where a film belongs in the frame one process would have rendered.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Origin {
+    /// The whole frame's size.
+    pub frame: (u32, u32),
+    /// The pixels this film holds.
+    pub cell: Cell,
+    /// The samples of every pixel this film holds: `start..end`.
+    pub samples: (u32, u32),
+    /// Samples per pixel of the whole render (`-s`; the cap with `-a`).
+    pub total: u32,
+    pub seed: u64,
+    pub adaptive: bool,
+}
+
+impl Origin {
+    /// A whole frame of `width` x `height`, no samples yet.
+    pub fn whole(width: u32, height: u32) -> Origin {
+        Origin {
+            frame: (width, height),
+            cell: Cell {
+                x: 0,
+                y: 0,
+                width,
+                height,
+            },
+            samples: (0, 0),
+            total: 0,
+            seed: 0,
+            adaptive: false,
+        }
+    }
+
+    fn text(&self, map: ToneMap) -> String {
+        let c = self.cell;
+        format!(
+            "frame {} {}; cell {} {} {} {}; samples {} {} of {}; seed {}; adaptive {}; tone {}",
+            self.frame.0,
+            self.frame.1,
+            c.x,
+            c.y,
+            c.width,
+            c.height,
+            self.samples.0,
+            self.samples.1,
+            self.total,
+            self.seed,
+            u8::from(self.adaptive),
+            match map {
+                ToneMap::Reference => "reference",
+                ToneMap::Identity => "identity",
+            }
+        )
+    }
+
+    fn parse(text: &str) -> Option<(Origin, ToneMap)> {
+        let fields: Vec<(&str, Vec<&str>)> = text
+            .split(';')
+            .map(|f| {
+                let mut words = f.split_whitespace();
+                (words.next().unwrap_or(""), words.collect())
+            })
+            .collect();
+        let get = |key: &str| fields.iter().find(|(k, _)| *k == key).map(|(_, v)| v);
+        let nums = |key: &str, n: usize| -> Option<Vec<u64>> {
+            let v = get(key)?;
+            let v: Vec<u64> = v
+                .iter()
+                .filter(|w| **w != "of")
+                .map(|w| w.parse().ok())
+                .collect::<Option<_>>()?;
+            (v.len() == n).then_some(v)
+        };
+        let u = |v: u64| u32::try_from(v).ok();
+        let frame = nums("frame", 2)?;
+        let cell = nums("cell", 4)?;
+        let samples = nums("samples", 3)?;
+        let origin = Origin {
+            frame: (u(frame[0])?, u(frame[1])?),
+            cell: Cell {
+                x: u(cell[0])?,
+                y: u(cell[1])?,
+                width: u(cell[2])?,
+                height: u(cell[3])?,
+            },
+            samples: (u(samples[0])?, u(samples[1])?),
+            total: u(samples[2])?,
+            seed: nums("seed", 1)?[0],
+            adaptive: nums("adaptive", 1)?[0] == 1,
+        };
+        let map = match get("tone")?.as_slice() {
+            ["reference"] => ToneMap::Reference,
+            ["identity"] => ToneMap::Identity,
+            _ => return None,
+        };
+        Some((origin, map))
+    }
+}
+
+/// The sum channels: the high and low 32 bits of each f64 sum.
+const SUMS: [&str; 6] = [
+    "sum.B.hi", "sum.B.lo", "sum.G.hi", "sum.G.lo", "sum.R.hi", "sum.R.lo",
+];
+
+/// Encodes `film` as an EXR part (see the module's text).
+pub fn write_exr<W: Write + Seek>(out: &mut W, film: &Film, map: ToneMap) -> Result<(), String> {
+    let size = (film.width as usize, film.height as usize);
+    let mean = |c: fn(&Vec3) -> f32| FlatSamples::F32(film.pixels.iter().map(c).collect());
+    let bits = |c: fn(&DVec3) -> f64, high: bool| {
+        FlatSamples::U32(
+            film.sums
+                .iter()
+                .map(|s| {
+                    let b = c(s).to_bits();
+                    if high {
+                        (b >> 32) as u32
+                    } else {
+                        b as u32
+                    }
+                })
+                .collect(),
+        )
+    };
+    let channels = SmallVec::from_vec(vec![
+        AnyChannel::new("R", mean(|p| p.x)),
+        AnyChannel::new("G", mean(|p| p.y)),
+        AnyChannel::new("B", mean(|p| p.z)),
+        AnyChannel::new("samples", FlatSamples::U32(film.samples.clone())),
+        AnyChannel::new(SUMS[4], bits(|s| s.x, true)),
+        AnyChannel::new(SUMS[5], bits(|s| s.x, false)),
+        AnyChannel::new(SUMS[2], bits(|s| s.y, true)),
+        AnyChannel::new(SUMS[3], bits(|s| s.y, false)),
+        AnyChannel::new(SUMS[0], bits(|s| s.z, true)),
+        AnyChannel::new(SUMS[1], bits(|s| s.z, false)),
+    ]);
+    let mut attributes = LayerAttributes::default();
+    attributes.other.insert(
+        Text::from(ATTRIBUTE),
+        AttributeValue::Text(Text::from(film.origin.text(map).as_str())),
+    );
+    let layer = Layer::new(
+        size,
+        attributes,
+        Encoding::SMALL_LOSSLESS,
+        AnyChannels::sort(channels),
+    );
+    Image::from_layer(layer)
+        .write()
+        .to_buffered(out)
+        .map_err(|e| e.to_string())
+}
+
+/// A part read back: its origin, tone map, and per pixel the sample count
+/// and the sum.
+pub struct Part {
+    pub origin: Origin,
+    pub map: ToneMap,
+    pub samples: Vec<u32>,
+    pub sums: Vec<DVec3>,
+}
+
+/// Reads a part written by [`write_exr`].
+pub fn read_part(path: &Path) -> Result<Part, String> {
+    let file = std::fs::File::open(path).map_err(|e| format!("{}: {e}", path.display()))?;
+    read_part_from(std::io::BufReader::new(file)).map_err(|e| format!("{}: {e}", path.display()))
+}
+
+fn read_part_from(input: impl Read + Seek) -> Result<Part, String> {
+    let image = read()
+        .no_deep_data()
+        .largest_resolution_level()
+        .all_channels()
+        .first_valid_layer()
+        .all_attributes()
+        .from_buffered(input)
+        .map_err(|e| format!("not a readable EXR file ({e})"))?;
+    let layer = &image.layer_data;
+    let not_a_part = || {
+        "not a partial render of hybrid (no hybrid.part attribute; render it with this version)"
+            .to_string()
+    };
+    let text = match layer.attributes.other.get(&Text::from(ATTRIBUTE)) {
+        Some(AttributeValue::Text(t)) => t.to_string(),
+        _ => return Err(not_a_part()),
+    };
+    let (origin, map) =
+        Origin::parse(&text).ok_or_else(|| format!("malformed hybrid.part attribute '{text}'"))?;
+    let c = origin.cell;
+    let inside =
+        c.x.checked_add(c.width)
+            .is_some_and(|e| e <= origin.frame.0)
+            && c.y
+                .checked_add(c.height)
+                .is_some_and(|e| e <= origin.frame.1);
+    if !inside || origin.samples.0 >= origin.samples.1 || origin.samples.1 > origin.total {
+        return Err(format!("inconsistent hybrid.part attribute '{text}'"));
+    }
+    let (w, h) = (layer.size.0, layer.size.1);
+    if (w, h) != (origin.cell.width as usize, origin.cell.height as usize) {
+        return Err(format!(
+            "the image is {w} x {h} but its attribute says the cell is {} x {}",
+            origin.cell.width, origin.cell.height
+        ));
+    }
+    let channel = |name: &str| -> Result<Vec<u32>, String> {
+        let c = layer
+            .channel_data
+            .list
+            .iter()
+            .find(|c| c.name == Text::from(name))
+            .ok_or_else(|| format!("channel '{name}' is missing"))?;
+        match &c.sample_data {
+            FlatSamples::U32(v) => Ok(v.clone()),
+            _ => Err(format!("channel '{name}' is not 32-bit unsigned")),
+        }
+    };
+    let samples = channel("samples")?;
+    let words: Vec<Vec<u32>> = SUMS.iter().map(|n| channel(n)).collect::<Result<_, _>>()?;
+    let f = |hi: &[u32], lo: &[u32], i: usize| {
+        f64::from_bits((u64::from(hi[i]) << 32) | u64::from(lo[i]))
+    };
+    let sums = (0..w * h)
+        .map(|i| {
+            DVec3::new(
+                f(&words[4], &words[5], i),
+                f(&words[2], &words[3], i),
+                f(&words[0], &words[1], i),
+            )
+        })
+        .collect();
+    Ok(Part {
+        origin,
+        map,
+        samples,
+        sums,
+    })
+}
+
+/// Combines parts into the frame one process would have rendered. Every
+/// part must describe the same frame, seed, sample total and tone map; no
+/// two may share a pixel and a sample; and together they must cover every
+/// sample of every pixel. `names` label the parts in errors.
+pub fn merge(parts: &[Part], names: &[String]) -> Result<(Film, ToneMap), String> {
+    let first = parts.first().ok_or("nothing to merge")?;
+    let o = first.origin;
+    for (p, name) in parts.iter().zip(names) {
+        let q = p.origin;
+        if q.frame != o.frame
+            || q.total != o.total
+            || q.seed != o.seed
+            || q.adaptive != o.adaptive
+            || p.map != first.map
+        {
+            return Err(format!(
+                "{name}: a different render from {} (frame, samples per pixel, seed or shading differ)",
+                names[0]
+            ));
+        }
+    }
+    for i in 0..parts.len() {
+        for j in i + 1..parts.len() {
+            let (a, b) = (parts[i].origin, parts[j].origin);
+            let cells = a.cell.x < b.cell.x + b.cell.width
+                && b.cell.x < a.cell.x + a.cell.width
+                && a.cell.y < b.cell.y + b.cell.height
+                && b.cell.y < a.cell.y + a.cell.height;
+            let samples = a.samples.0 < b.samples.1 && b.samples.0 < a.samples.1;
+            if cells && samples {
+                return Err(format!(
+                    "{} and {} overlap (both hold samples {}..{} of pixel ({}, {}))",
+                    names[i],
+                    names[j],
+                    a.samples.0.max(b.samples.0),
+                    a.samples.1.min(b.samples.1),
+                    a.cell.x.max(b.cell.x),
+                    a.cell.y.max(b.cell.y)
+                ));
+            }
+        }
+    }
+    let (w, h) = o.frame;
+    let mut film = Film::new(w, h);
+    let mut covered = vec![0u64; w as usize * h as usize];
+    for p in parts {
+        let c = p.origin.cell;
+        let span = u64::from(p.origin.samples.1 - p.origin.samples.0);
+        for y in 0..c.height {
+            for x in 0..c.width {
+                let src = (y * c.width + x) as usize;
+                let dst = ((c.y + y) * w + c.x + x) as usize;
+                film.sums[dst] += p.sums[src];
+                film.samples[dst] += p.samples[src];
+                covered[dst] += span;
+            }
+        }
+    }
+    if let Some(i) = covered.iter().position(|&n| n != u64::from(o.total)) {
+        return Err(format!(
+            "pixel ({}, {}) has {} of its {} samples: a part is missing",
+            i as u32 % w,
+            i as u32 / w,
+            covered[i],
+            o.total
+        ));
+    }
+    for (pixel, (sum, &n)) in film
+        .pixels
+        .iter_mut()
+        .zip(film.sums.iter().zip(&film.samples))
+    {
+        *pixel = if n == 0 {
+            Vec3::ZERO
+        } else {
+            (*sum / f64::from(n)).as_vec3()
+        };
+    }
+    film.origin = Origin {
+        cell: Cell {
+            x: 0,
+            y: 0,
+            width: w,
+            height: h,
+        },
+        samples: (0, o.total),
+        ..o
+    };
+    Ok((film, first.map))
+}
