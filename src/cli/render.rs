@@ -73,6 +73,10 @@ pub struct RenderArgs {
     /// Render one cell of the image only; the output holds just the cell.
     #[arg(short = 'p', num_args = 4, value_names = ["X", "Y", "DX", "DY"])]
     pub cell: Option<Vec<u32>>,
+    /// Render band K of N equal bands of rows (K from 0): the task of a
+    /// job array; write .exr parts and combine them with `hybrid merge`.
+    #[arg(long = "part", value_name = "K/N", conflicts_with = "cell")]
+    pub part: Option<String>,
     /// Render only samples A..B-1 of every pixel (of -s N): write .exr
     /// parts and combine them with `hybrid merge`.
     #[arg(long = "samples", value_name = "A..B")]
@@ -184,8 +188,29 @@ impl RenderArgs {
             }
             None => None,
         };
-        let cell = match &self.cell {
-            Some(c) => {
+        let cell = match (&self.cell, &self.part) {
+            (_, Some(text)) => {
+                let kn = text.split_once('/').and_then(|(k, n)| {
+                    Some((k.trim().parse::<u32>().ok()?, n.trim().parse::<u32>().ok()?))
+                });
+                match kn {
+                    Some((k, n)) if k < n && n <= height => {
+                        let band = |k: u32| (u64::from(height) * u64::from(k) / u64::from(n)) as u32;
+                        Some(Cell {
+                            x: 0,
+                            y: band(k),
+                            width,
+                            height: band(k + 1) - band(k),
+                        })
+                    }
+                    _ => {
+                        return Err(format!(
+                            "--part {text}: expected K/N with 0 <= K < N <= {height} (the image's rows)"
+                        ))
+                    }
+                }
+            }
+            (Some(c), None) => {
                 let cell = Cell {
                     x: c[0],
                     y: c[1],
@@ -207,7 +232,7 @@ impl RenderArgs {
                 }
                 Some(cell)
             }
-            None => None,
+            (None, None) => None,
         };
         let sample_range = match &self.sample_range {
             Some(text) => {
