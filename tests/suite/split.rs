@@ -176,3 +176,30 @@ fn cells_and_sample_ranges_merge_into_the_single_render() {
         "cannot be split by samples",
     );
 }
+
+#[test]
+fn bands_of_rows_cover_the_frame() {
+    let dir = common::scratch("split-bands");
+    render(&dir, "native", &[], "whole.png");
+    let parts: Vec<String> = (0..7).map(|k| format!("band-{k}.exr")).collect();
+    for (k, part) in parts.iter().enumerate() {
+        render(&dir, "native", &["--part", &format!("{k}/7")], part);
+    }
+    let mut args = vec!["merge", "-f", "bands.png"];
+    args.extend(parts.iter().map(String::as_str));
+    ok(&args, &dir);
+    assert!(
+        std::fs::read(dir.join("bands.png")).unwrap()
+            == std::fs::read(dir.join("whole.png")).unwrap()
+    );
+    fails(
+        &["render", "-r", "40", "30", "--part", "7/7", "-f", "z.exr"],
+        &dir,
+        "--part 7/7",
+    );
+    fails(
+        &["render", "-r", "40", "30", "--part", "0/31", "-f", "z.exr"],
+        &dir,
+        "--part 0/31",
+    );
+}
