@@ -13,7 +13,7 @@ use crate::accel::native::triangle::TriangleMode;
 use crate::accel::native::NativeOptions;
 use crate::accel::{Accel, BackendConfig};
 use crate::choice::Choice;
-use crate::render::camera::CameraMode;
+use crate::render::camera::{CameraMode, ThinLens};
 use crate::render::film::{check_writable, rate_path, write_files, ToneMap};
 use crate::render::integrator::{BounceView, DirectEstimator, PathSettings, Shading};
 use crate::render::{render, Adaptive, Cell, Progress, RenderSettings};
@@ -55,6 +55,13 @@ pub struct RenderArgs {
     /// Camera placement: the reference framing, or the camera node's own.
     #[arg(long, value_parser = choice::<CameraMode>(), default_value = CameraMode::default().name())]
     pub camera: CameraMode,
+    /// Thin lens: lens radius in scene units (depth of field; 0: pinhole).
+    #[arg(short = 'b', value_name = "RADIUS")]
+    pub lens_radius: Option<f32>,
+    /// Thin lens: distance in focus along the view axis (default: the
+    /// distance to the framed scene's centre).
+    #[arg(short = 'd', value_name = "DISTANCE")]
+    pub focal_distance: Option<f32>,
     /// Resolution.
     #[arg(short = 'r', num_args = 2, value_names = ["W", "H"], default_values_t = [480u32, 360])]
     pub resolution: Vec<u32>,
@@ -234,6 +241,23 @@ impl RenderArgs {
             }
             (None, None) => None,
         };
+        let lens = match (self.lens_radius, self.focal_distance) {
+            (Some(r), _) if !(r >= 0.0 && r.is_finite()) => {
+                return Err(format!("-b {r}: the lens radius must be 0 or more"))
+            }
+            (_, Some(d)) if !(d > 0.0 && d.is_finite()) => {
+                return Err(format!("-d {d}: the focal distance must be more than 0"))
+            }
+            (Some(radius), d) => Some(ThinLens {
+                radius,
+                focal_distance: d.unwrap_or(0.0),
+            }),
+            (None, Some(d)) => {
+                eprintln!("hybrid: warning: -d {d} is ignored without a lens radius (-b)");
+                None
+            }
+            (None, None) => None,
+        };
         let sample_range = match &self.sample_range {
             Some(text) => {
                 let range = text.split_once("..").and_then(|(a, b)| {
@@ -291,6 +315,7 @@ impl RenderArgs {
             adaptive,
             cell,
             sample_range,
+            lens,
         })
     }
 

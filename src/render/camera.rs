@@ -7,11 +7,26 @@
 //! the node's own placement. In both, the image aspect wins over the file's:
 //! the field of view of the side that is relatively narrower is widened, so
 //! the file's view always fits in the image.
+//!
+//! A thin lens (`-b R -d D`, as the course): rays start on a disk of radius
+//! R around the camera position in the image plane's directions and pass
+//! through the point the pinhole ray reaches at distance D along the view
+//! axis, so points at that distance stay sharp and others blur with R.
 
 use glam::{Mat4, Vec3};
 
+use super::sampling::concentric_disk;
 use crate::accel::Ray;
 use crate::scene::{CameraSpec, Scene};
+
+/// Depth of field: the lens radius and the distance in focus, along the
+/// view axis, in scene units (0 or less: the distance to the framing's
+/// centre).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ThinLens {
+    pub radius: f32,
+    pub focal_distance: f32,
+}
 
 /// Where the camera stands: the reference framing or the node's own.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
@@ -34,12 +49,16 @@ pub struct Camera {
     tan_half_y: f32,
     width: u32,
     height: u32,
+    /// The point the canonical framing looks at (the scene's centre), or
+    /// one unit ahead for the node camera: the default focal distance.
+    target_distance: f32,
+    lens: Option<ThinLens>,
 }
 
 impl Camera {
     pub fn new(scene: &Scene, mode: CameraMode, width: u32, height: u32) -> Camera {
         let spec = &scene.camera;
-        let (position, forward, up_hint) = match mode {
+        let (position, forward, up_hint, target_distance) = match mode {
             CameraMode::Canonical => {
                 let b = scene.framing_bounds;
                 let target = b.center();
@@ -52,6 +71,7 @@ impl Camera {
                     position,
                     (target - position).normalize_or(-Vec3::Z),
                     Vec3::Y,
+                    (target - position).length(),
                 )
             }
             CameraMode::Node => {
@@ -60,10 +80,12 @@ impl Camera {
                 let forward = t
                     .transform_vector3(Vec3::new(0.0, 0.0, -1.0))
                     .normalize_or(-Vec3::Z);
+                let centre = scene.framing_bounds.center();
                 (
                     position,
                     forward,
                     t.transform_vector3(Vec3::Y).normalize_or(Vec3::Y),
+                    (centre - position).dot(forward).max(1e-3),
                 )
             }
         };
@@ -84,7 +106,49 @@ impl Camera {
             tan_half_y,
             width,
             height,
+            target_distance,
+            lens: None,
         }
+    }
+
+    /// The camera with a thin lens (`radius` 0: still a pinhole).
+    pub fn with_lens(mut self, lens: Option<ThinLens>) -> Camera {
+        self.lens = lens.filter(|l| l.radius > 0.0).map(|l| ThinLens {
+            focal_distance: if l.focal_distance > 0.0 {
+                l.focal_distance
+            } else {
+                self.target_distance
+            },
+            ..l
+        });
+        self
+    }
+
+    /// Distance along the view axis to the framing's centre: where a lens
+    /// focuses when no distance is given.
+    pub fn target_distance(&self) -> f32 {
+        self.target_distance
+    }
+
+    /// Whether rays need a lens sample ([`Camera::ray_through_lens`]).
+    pub fn has_lens(&self) -> bool {
+        self.lens.is_some()
+    }
+
+    /// The ray through image position `(x, y)` from lens sample `(u, v)`
+    /// in the unit square; the pinhole ray without a lens.
+    #[inline]
+    pub fn ray_through_lens(&self, x: f32, y: f32, (u, v): (f32, f32)) -> Ray {
+        let Some(lens) = self.lens else {
+            return self.ray(x, y);
+        };
+        let sx = (2.0 * x / self.width as f32 - 1.0) * self.tan_half_x;
+        let sy = (1.0 - 2.0 * y / self.height as f32) * self.tan_half_y;
+        // The pinhole ray reaches the plane of focus at depth D.
+        let focus = (self.right * sx + self.up * sy - self.back) * lens.focal_distance;
+        let (dx, dy) = concentric_disk(u, v);
+        let offset = (self.right * dx + self.up * dy) * lens.radius;
+        Ray::new(self.position + offset, (focus - offset).normalize())
     }
 
     /// The ray through image position `(x, y)` in pixels, `(0, 0)` the top

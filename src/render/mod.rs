@@ -23,7 +23,7 @@ use std::time::Instant;
 use glam::{DVec3, Vec3};
 use rayon::prelude::*;
 
-use self::camera::{Camera, CameraMode};
+use self::camera::{Camera, CameraMode, ThinLens};
 use self::film::Film;
 use self::integrator::{Integrator, Shading};
 use self::part::Origin;
@@ -64,6 +64,8 @@ pub struct RenderSettings {
     /// Render only samples `start..end` of every pixel (of `samples`):
     /// parts of one frame that `hybrid merge` combines.
     pub sample_range: Option<(u32, u32)>,
+    /// Depth of field (`-b`, `-d`); `None`: a pinhole.
+    pub lens: Option<ThinLens>,
 }
 
 impl Default for RenderSettings {
@@ -79,6 +81,7 @@ impl Default for RenderSettings {
             adaptive: None,
             cell: None,
             sample_range: None,
+            lens: None,
         }
     }
 }
@@ -139,7 +142,7 @@ fn render_rows<A: Accel>(
 ) -> RenderOutput {
     let start = Instant::now();
     let (w, h) = (settings.width, settings.height);
-    let camera = Camera::new(scene, settings.camera, w, h);
+    let camera = Camera::new(scene, settings.camera, w, h).with_lens(settings.lens);
     let integrator = Integrator::new(scene, accel, settings.shading);
     let cell = settings.cell.unwrap_or(Cell {
         x: 0,
@@ -221,7 +224,14 @@ fn pixel<A: Accel>(
             } else {
                 pixel_position(settings.seed, x, y, i)
             };
-            let ray = camera.ray(x as f32 + dx, y as f32 + dy);
+            // The lens sample comes first from the sample's stream, and
+            // only with a lens: pinhole images keep their random numbers.
+            let ray = if camera.has_lens() {
+                let lens = rng.next_2d();
+                camera.ray_through_lens(x as f32 + dx, y as f32 + dy, lens)
+            } else {
+                camera.ray(x as f32 + dx, y as f32 + dy)
+            };
             let value = integrator.radiance(&ray, &mut rng, counters);
             sum += value.as_dvec3();
             let l = luminance(value) as f64;

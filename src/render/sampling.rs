@@ -118,6 +118,24 @@ impl Frame {
 }
 
 /// Uniform direction on the unit sphere; pdf `1 / (4 pi)`.
+/// A point of the unit disk, uniform by area: Shirley and Chiu's concentric
+/// map (1997), which keeps strata of the square compact on the disk.
+pub fn concentric_disk(u: f32, v: f32) -> (f32, f32) {
+    let (a, b) = (2.0 * u - 1.0, 2.0 * v - 1.0);
+    if a == 0.0 && b == 0.0 {
+        return (0.0, 0.0);
+    }
+    let (r, theta) = if a.abs() > b.abs() {
+        (a, std::f32::consts::FRAC_PI_4 * (b / a))
+    } else {
+        (
+            b,
+            std::f32::consts::FRAC_PI_2 - std::f32::consts::FRAC_PI_4 * (a / b),
+        )
+    };
+    (r * theta.cos(), r * theta.sin())
+}
+
 pub fn uniform_sphere(u: f32, v: f32) -> Vec3 {
     let z = 1.0 - 2.0 * u;
     let r = (1.0 - z * z).max(0.0).sqrt();

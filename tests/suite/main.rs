@@ -5,6 +5,7 @@
 mod common;
 
 mod bvh;
+mod camera;
 mod cli;
 mod embree_backend;
 mod hostile;
