@@ -14,6 +14,7 @@ use crate::accel::native::NativeOptions;
 use crate::accel::{Accel, BackendConfig};
 use crate::choice::Choice;
 use crate::render::camera::{CameraMode, ThinLens};
+use crate::render::camera_file::CourseCamera;
 use crate::render::film::{check_writable, rate_path, write_files, ToneMap};
 use crate::render::integrator::{BounceView, DirectEstimator, PathSettings, Shading};
 use crate::render::{render, Adaptive, Cell, Progress, RenderSettings};
@@ -55,6 +56,13 @@ pub struct RenderArgs {
     /// Camera placement: the reference framing, or the camera node's own.
     #[arg(long, value_parser = choice::<CameraMode>(), default_value = CameraMode::default().name())]
     pub camera: CameraMode,
+    /// Camera settings file in the course framework's format (overrides
+    /// --camera; its lens is used unless -b is given).
+    #[arg(short = 'c', value_name = "FILE")]
+    pub camera_file: Option<PathBuf>,
+    /// Write the camera this render uses to FILE in the course's format.
+    #[arg(long, value_name = "FILE")]
+    pub save_camera: Option<PathBuf>,
     /// Thin lens: lens radius in scene units (depth of field; 0: pinhole).
     #[arg(short = 'b', value_name = "RADIUS")]
     pub lens_radius: Option<f32>,
@@ -258,6 +266,15 @@ impl RenderArgs {
             }
             (None, None) => None,
         };
+        let course_camera = match &self.camera_file {
+            Some(path) => {
+                let name = path.display().to_string();
+                let text = std::fs::read_to_string(path)
+                    .map_err(|e| format!("{name}: cannot read the camera file: {e}"))?;
+                Some(CourseCamera::parse(&text, &name)?)
+            }
+            None => None,
+        };
         let sample_range = match &self.sample_range {
             Some(text) => {
                 let range = text.split_once("..").and_then(|(a, b)| {
@@ -316,6 +333,7 @@ impl RenderArgs {
             cell,
             sample_range,
             lens,
+            course_camera,
         })
     }
 
@@ -404,6 +422,13 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
         scene.primitive_count(),
         start.elapsed().as_secs_f64() * 1e3
     );
+
+    if let Some(path) = &args.save_camera {
+        let text = settings.camera_for(&scene).to_course().text();
+        std::fs::write(path, text)
+            .map_err(|e| format!("{}: cannot write the camera file: {e}", path.display()))?;
+        say!("wrote the camera to {}", path.display());
+    }
 
     let backend = args.backend();
     let accel = backend.build(&scene).map_err(|e| e.to_string())?;

@@ -15,9 +15,10 @@
 
 use glam::{Mat4, Vec3};
 
+use super::camera_file::CourseCamera;
 use super::sampling::concentric_disk;
 use crate::accel::Ray;
-use crate::scene::{CameraSpec, Scene};
+use crate::scene::Scene;
 
 /// Depth of field: the lens radius and the distance in focus, along the
 /// view axis, in scene units (0 or less: the distance to the framing's
@@ -53,6 +54,8 @@ pub struct Camera {
     /// one unit ahead for the node camera: the default focal distance.
     target_distance: f32,
     lens: Option<ThinLens>,
+    /// The fields of view asked for (degrees), before fitting the image.
+    fov: (f32, f32),
 }
 
 impl Camera {
@@ -96,7 +99,7 @@ impl Camera {
         };
         let right = forward.cross(up_hint).normalize();
         let up = right.cross(forward);
-        let (tan_half_x, tan_half_y) = fit_fov(spec, width as f32 / height as f32);
+        let (tan_half_x, tan_half_y) = fit_fov(spec.xfov, spec.yfov, width as f32 / height as f32);
         Camera {
             position,
             right,
@@ -108,6 +111,44 @@ impl Camera {
             height,
             target_distance,
             lens: None,
+            fov: (spec.xfov, spec.yfov),
+        }
+    }
+
+    /// The camera a course camera file describes (`-c`), at this image
+    /// size; its lens, if any, is the file's.
+    pub fn from_course(c: &CourseCamera, width: u32, height: u32) -> Camera {
+        let (tan_half_x, tan_half_y) = fit_fov(c.hfov, c.vfov, width as f32 / height as f32);
+        Camera {
+            position: c.position,
+            right: c.right,
+            up: c.up,
+            back: c.back,
+            tan_half_x,
+            tan_half_y,
+            width,
+            height,
+            target_distance: (c.position - c.target).dot(c.back).max(1e-3),
+            lens: None,
+            fov: (c.hfov, c.vfov),
+        }
+        .with_lens(c.lens())
+    }
+
+    /// The course camera file of this camera (`--save-camera`): reading it
+    /// back with `-c` gives this camera.
+    pub fn to_course(&self) -> CourseCamera {
+        CourseCamera {
+            hfov: self.fov.0,
+            vfov: self.fov.1,
+            position: self.position,
+            target: self.position - self.back * self.target_distance,
+            right: self.right,
+            up: self.up,
+            back: self.back,
+            screen: (self.width as f32, self.height as f32),
+            focal_distance: self.lens.map_or(self.target_distance, |l| l.focal_distance),
+            lens_radius: self.lens.map_or(0.0, |l| l.radius),
         }
     }
 
@@ -163,9 +204,9 @@ impl Camera {
 }
 
 /// Half-angle tangents that contain the file's view at the image aspect.
-fn fit_fov(spec: &CameraSpec, image_aspect: f32) -> (f32, f32) {
-    let tx = (spec.xfov.to_radians() * 0.5).tan();
-    let ty = (spec.yfov.to_radians() * 0.5).tan();
+fn fit_fov(xfov: f32, yfov: f32, image_aspect: f32) -> (f32, f32) {
+    let tx = (xfov.to_radians() * 0.5).tan();
+    let ty = (yfov.to_radians() * 0.5).tan();
     if image_aspect > tx / ty {
         (ty * image_aspect, ty)
     } else {

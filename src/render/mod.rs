@@ -11,6 +11,7 @@
 //! the image is the same for any thread count.
 
 pub mod camera;
+pub mod camera_file;
 pub mod film;
 pub mod integrator;
 pub mod light;
@@ -24,6 +25,7 @@ use glam::{DVec3, Vec3};
 use rayon::prelude::*;
 
 use self::camera::{Camera, CameraMode, ThinLens};
+use self::camera_file::CourseCamera;
 use self::film::Film;
 use self::integrator::{Integrator, Shading};
 use self::part::Origin;
@@ -64,8 +66,29 @@ pub struct RenderSettings {
     /// Render only samples `start..end` of every pixel (of `samples`):
     /// parts of one frame that `hybrid merge` combines.
     pub sample_range: Option<(u32, u32)>,
-    /// Depth of field (`-b`, `-d`); `None`: a pinhole.
+    /// Depth of field (`-b`, `-d`); `None`: a pinhole (or the camera
+    /// file's lens).
     pub lens: Option<ThinLens>,
+    /// A camera file's camera (`-c`), instead of `camera`'s placement.
+    pub course_camera: Option<CourseCamera>,
+}
+
+impl RenderSettings {
+    /// The camera these settings render through: the camera file's or the
+    /// placement `camera` names, with the lens of `-b`/`-d` if given
+    /// (else the file's, if it has one).
+    pub fn camera_for(&self, scene: &Scene) -> Camera {
+        let (w, h) = (self.width, self.height);
+        let camera = match &self.course_camera {
+            Some(c) => Camera::from_course(c, w, h),
+            None => Camera::new(scene, self.camera, w, h),
+        };
+        if self.lens.is_some() {
+            camera.with_lens(self.lens)
+        } else {
+            camera
+        }
+    }
 }
 
 impl Default for RenderSettings {
@@ -82,6 +105,7 @@ impl Default for RenderSettings {
             cell: None,
             sample_range: None,
             lens: None,
+            course_camera: None,
         }
     }
 }
@@ -142,7 +166,7 @@ fn render_rows<A: Accel>(
 ) -> RenderOutput {
     let start = Instant::now();
     let (w, h) = (settings.width, settings.height);
-    let camera = Camera::new(scene, settings.camera, w, h).with_lens(settings.lens);
+    let camera = settings.camera_for(scene);
     let integrator = Integrator::new(scene, accel, settings.shading);
     let cell = settings.cell.unwrap_or(Cell {
         x: 0,

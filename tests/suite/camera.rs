@@ -108,3 +108,106 @@ fn the_plane_of_focus_stays_sharp_and_the_rest_blurs_with_the_radius() {
         }
     }
 }
+
+fn hybrid(args: &[&str], dir: &std::path::Path) -> std::process::Output {
+    std::process::Command::new(env!("CARGO_BIN_EXE_hybrid"))
+        .args(args)
+        .current_dir(dir)
+        .output()
+        .expect("run hybrid")
+}
+
+#[test]
+fn a_saved_camera_file_renders_the_same_image_and_bad_ones_name_their_line() {
+    let dir = crate::common::scratch("camera-file");
+    let run = |args: &[&str]| {
+        let o = hybrid(args, &dir);
+        assert!(
+            o.status.success(),
+            "{args:?}: {}",
+            String::from_utf8_lossy(&o.stderr)
+        );
+    };
+    let bytes = |f: &str| std::fs::read(dir.join(f)).unwrap();
+    for accel in ["native", "embree"] {
+        let frame = [
+            "render", "--accel", accel, "-r", "60", "45", "-s", "4", "-m", "2",
+        ];
+        run(&[&frame[..], &["--save-camera", "cam.txt", "-f", "a.png"]].concat());
+        run(&[&frame[..], &["-c", "cam.txt", "-f", "b.png"]].concat());
+        assert!(
+            bytes("a.png") == bytes("b.png"),
+            "{accel}: the camera read back renders another image"
+        );
+        // The node camera differs from the canonical framing, and survives the round trip too.
+        run(&[
+            &frame[..],
+            &[
+                "--camera",
+                "node",
+                "--save-camera",
+                "node.txt",
+                "-f",
+                "c.png",
+            ],
+        ]
+        .concat());
+        run(&[&frame[..], &["-c", "node.txt", "-f", "d.png"]].concat());
+        assert!(bytes("c.png") == bytes("d.png") && bytes("a.png") != bytes("c.png"));
+    }
+    // Made by hand, matrix over three lines: in front of the box looking at it.
+    std::fs::write(
+        dir.join("hand.txt"),
+        "45 45 1 0.1 100\n0 1 3.5 0 1 0\n0 0 3.5 0.3 30\n1 0 0\n0 1 0\n0 0 1\n60 45 100\n3.5 0\n",
+    )
+    .unwrap();
+    run(&[
+        "render",
+        "-r",
+        "60",
+        "45",
+        "--normals",
+        "-c",
+        "hand.txt",
+        "-f",
+        "hand.png",
+    ]);
+    let img = image::open(dir.join("hand.png")).unwrap().to_rgb8();
+    assert!(
+        img.get_pixel(30, 22).0.iter().any(|&c| c > 40),
+        "the hand-made camera sees nothing"
+    );
+    for (name, text, expected) in [
+        (
+            "short.txt",
+            "45 45 1 0.1 100\n0 0 3 0 0\n",
+            "short.txt:2: the file ends after 5 of the 6 numbers",
+        ),
+        (
+            "word.txt",
+            "45 45 1 0.1 100\n0 0 3 0 0 x\n",
+            "word.txt:2: 'x' is not a finite number",
+        ),
+        (
+            "skew.txt",
+            "45 45 1 0.1 100\n0 0 3 0 0 0\n0 0 3 0.3 30\n1 0 0 0 2 0 0 0 1\n60 45 100\n3 0\n",
+            "skew.txt:4: the camera-to-world matrix is not a rotation",
+        ),
+        (
+            "extra.txt",
+            "45 45 1 0.1 100\n0 0 3 0 0 0\n0 0 3 0.3 30\n1 0 0 0 1 0 0 0 1\n60 45 100\n3 0 7\n",
+            "extra.txt:6: unexpected '7'",
+        ),
+    ] {
+        std::fs::write(dir.join(name), text).unwrap();
+        let o = hybrid(&["render", "-c", name, "-f", "bad.png"], &dir);
+        let stderr = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{name}: {stderr}");
+        assert_eq!(stderr.lines().count(), 1, "{name}: {stderr}");
+        assert!(
+            stderr.contains(expected),
+            "{name}: '{expected}' not in {stderr}"
+        );
+        assert!(!dir.join("bad.png").exists());
+    }
+}
