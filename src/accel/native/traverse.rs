@@ -196,6 +196,49 @@ pub fn any<L: Leaves>(
 mod scalar {
     use super::*;
 
+    /// Entries the scalar stack holds without allocating: enough for any
+    /// ray on the shared scenes (a 4-level tree leaves at most 28 behind).
+    const INLINE: usize = 64;
+
+    /// The traversal stack: the first [`INLINE`] entries in an array, any
+    /// beyond in a vector that only deep trees ever allocate. No
+    /// allocation per ray, and no large array to clear per ray either.
+    struct Stack<T: Copy> {
+        inline: [T; INLINE],
+        len: usize,
+        spill: Vec<T>,
+    }
+
+    impl<T: Copy> Stack<T> {
+        #[inline(always)]
+        fn new(fill: T) -> Self {
+            Stack {
+                inline: [fill; INLINE],
+                len: 0,
+                spill: Vec::new(),
+            }
+        }
+
+        #[inline(always)]
+        fn push(&mut self, item: T) {
+            if self.len < INLINE {
+                self.inline[self.len] = item;
+                self.len += 1;
+            } else {
+                self.spill.push(item);
+            }
+        }
+
+        #[inline(always)]
+        fn pop(&mut self) -> Option<T> {
+            if let Some(item) = self.spill.pop() {
+                return Some(item);
+            }
+            self.len = self.len.checked_sub(1)?;
+            Some(self.inline[self.len])
+        }
+    }
+
     /// Entry distances and hit mask of the node's children.
     #[inline(always)]
     fn slab(node: &Node8, ray: &BoxRay, t_max: f32) -> ([f32; WIDTH], u32) {
@@ -233,7 +276,7 @@ mod scalar {
         octant: u32,
         near: &[f32; WIDTH],
         mask: u32,
-        stack: &mut Vec<(ChildRef, f32)>,
+        stack: &mut Stack<(ChildRef, f32)>,
     ) -> ChildRef {
         let mut nearest = None;
         for place in 0..WIDTH {
@@ -255,7 +298,7 @@ mod scalar {
         work: &mut Work,
     ) -> bool {
         let octant = ray.octant();
-        let mut stack: Vec<(ChildRef, f32)> = Vec::with_capacity(64);
+        let mut stack = Stack::new((0, 0.0));
         let mut current: ChildRef = 0;
         let mut hit = false;
         loop {
@@ -294,7 +337,7 @@ mod scalar {
         leaves: &mut L,
         work: &mut Work,
     ) -> bool {
-        let mut stack: Vec<ChildRef> = Vec::with_capacity(64);
+        let mut stack = Stack::new(0);
         let mut current: ChildRef = 0;
         loop {
             if !is_leaf(current) {
@@ -304,11 +347,9 @@ mod scalar {
                 if mask != 0 {
                     // Slot order (decreasing size), the last hit slot first.
                     let last = 31 - mask.leading_zeros() as usize;
-                    stack.extend(
-                        (0..last)
-                            .filter(|i| mask & (1 << i) != 0)
-                            .map(|i| node.child[i]),
-                    );
+                    for i in (0..last).filter(|i| mask & (1 << i) != 0) {
+                        stack.push(node.child[i]);
+                    }
                     current = node.child[last];
                     continue;
                 }
