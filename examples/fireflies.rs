@@ -3,6 +3,7 @@
 //! `cargo run --release --example fireflies -- a.exr b.exr ...`
 //! (`FACTOR=2` for another threshold, `SHOW=1` to list the pixels)
 
+use hybrid::render::sampling::luminance;
 use hybrid::report::fireflies::count_fireflies;
 
 fn main() {
@@ -21,7 +22,7 @@ fn main() {
         let (w, h) = img.dimensions();
         let luminance: Vec<f32> = img
             .pixels()
-            .map(|p| 0.2126 * p.0[0] + 0.7152 * p.0[1] + 0.0722 * p.0[2])
+            .map(|p| luminance(glam::Vec3::from(p.0)))
             .collect();
         let n = count_fireflies(&luminance, w as usize, h as usize, factor);
         println!(

@@ -34,7 +34,8 @@ pub const MAX_THREADS: usize = 256;
 /// The most pixels one run renders (8192 x 8192): the film costs
 /// [`FILM_BYTES_PER_PIXEL`] each, and writing it a few more.
 pub const MAX_PIXELS: u64 = 1 << 26;
-const FILM_BYTES_PER_PIXEL: u64 = 16;
+/// Mean (12 bytes), sample count (4) and double-precision sum (24).
+const FILM_BYTES_PER_PIXEL: u64 = 40;
 
 #[derive(Args, Debug, Clone)]
 pub struct RenderArgs {
@@ -204,27 +205,22 @@ impl RenderArgs {
             None => None,
         };
         let cell = match (&self.cell, &self.part) {
-            (_, Some(text)) => {
-                let kn = text.split_once('/').and_then(|(k, n)| {
-                    Some((k.trim().parse::<u32>().ok()?, n.trim().parse::<u32>().ok()?))
-                });
-                match kn {
-                    Some((k, n)) if k < n && n <= height => {
-                        let band = |k: u32| (u64::from(height) * u64::from(k) / u64::from(n)) as u32;
-                        Some(Cell {
-                            x: 0,
-                            y: band(k),
-                            width,
-                            height: band(k + 1) - band(k),
-                        })
-                    }
-                    _ => {
-                        return Err(format!(
-                            "--part {text}: expected K/N with 0 <= K < N <= {height} (the image's rows)"
-                        ))
-                    }
+            (_, Some(text)) => match two_numbers(text, "/") {
+                Some((k, n)) if k < n && n <= height => {
+                    let band = |k: u32| (u64::from(height) * u64::from(k) / u64::from(n)) as u32;
+                    Some(Cell {
+                        x: 0,
+                        y: band(k),
+                        width,
+                        height: band(k + 1) - band(k),
+                    })
                 }
-            }
+                _ => {
+                    return Err(format!(
+                    "--part {text}: expected K/N with 0 <= K < N <= {height} (the image's rows)"
+                ))
+                }
+            },
             (Some(c), None) => {
                 let cell = Cell {
                     x: c[0],
@@ -277,9 +273,7 @@ impl RenderArgs {
         };
         let sample_range = match &self.sample_range {
             Some(text) => {
-                let range = text.split_once("..").and_then(|(a, b)| {
-                    Some((a.trim().parse::<u32>().ok()?, b.trim().parse::<u32>().ok()?))
-                });
+                let range = two_numbers(text, "..");
                 match range {
                     Some((a, b)) if a < b && b <= self.samples => {}
                     _ => {
@@ -368,6 +362,12 @@ impl RenderArgs {
             .unwrap_or("cornell");
         PathBuf::from(format!("{stem}.png"))
     }
+}
+
+/// `A<sep>B` as two whole numbers (`--part K/N`, `--samples A..B`).
+fn two_numbers(text: &str, sep: &str) -> Option<(u32, u32)> {
+    let (a, b) = text.split_once(sep)?;
+    Some((a.trim().parse().ok()?, b.trim().parse().ok()?))
 }
 
 /// A progress bar on stderr, hidden when stderr is not a terminal.

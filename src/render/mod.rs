@@ -236,10 +236,10 @@ fn pixel<A: Accel>(
     let batch = settings.adaptive.map_or(cap, |a| a.batch.max(1));
     let mut sum = DVec3::ZERO;
     let (mut s1, mut s2) = (0.0f64, 0.0f64);
-    let mut i = first;
-    while i < last {
-        let end = (i + batch).min(last);
-        for i in i..end {
+    let mut done = first;
+    while done < last {
+        let end = (done + batch).min(last);
+        for i in done..end {
             let mut rng = Rng::for_sample(settings.seed, x, y, i);
             // One sample at the pixel centre when there is one sample;
             // positions spread evenly over the pixel otherwise.
@@ -262,10 +262,10 @@ fn pixel<A: Accel>(
             s1 += l;
             s2 += l * l;
         }
-        i = end;
-        let n = i - first;
+        done = end;
+        let n = done - first;
         if let Some(a) = settings.adaptive {
-            if n >= 2 && i < last {
+            if n >= 2 && done < last {
                 let nf = n as f64;
                 let mean = s1 / nf;
                 let variance = ((s2 - s1 * s1 / nf) / (nf - 1.0)).max(0.0);
@@ -276,5 +276,5 @@ fn pixel<A: Accel>(
             }
         }
     }
-    (sum, i - first)
+    (sum, done - first)
 }

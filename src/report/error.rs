@@ -74,8 +74,8 @@ impl ErrorSeries {
 }
 
 /// The estimators of the study, each at uniform samples: the course's two
-/// and multiple importance sampling.
-const ESTIMATORS: [(&str, DirectEstimator); 3] = [
+/// and multiple importance sampling (the gallery shows the same three).
+pub const ESTIMATORS: [(&str, DirectEstimator); 3] = [
     ("hemisphere", DirectEstimator::Hemisphere),
     ("light sampling", DirectEstimator::LightSampling),
     ("MIS", DirectEstimator::Mis),
@@ -311,7 +311,7 @@ pub fn headline(study: &ErrorStudy) -> String {
         "Error at equal time ({t:.2} s per render, `{}`, {} bounces, {} threads), RMSE against the reference:\n\n",
         study.scene, study.max_bounces, study.threads
     );
-    for backend in ["native", "embree"] {
+    for backend in COMPARED.iter().map(|c| c.kind()) {
         let at = |e| study.rmse_at_equal_time(backend, e);
         if let (Some(m), Some(l), Some(h)) = (at("MIS"), at("light sampling"), at("hemisphere")) {
             md += &format!(
