@@ -109,25 +109,10 @@ fn the_plane_of_focus_stays_sharp_and_the_rest_blurs_with_the_radius() {
     }
 }
 
-fn hybrid(args: &[&str], dir: &std::path::Path) -> std::process::Output {
-    std::process::Command::new(env!("CARGO_BIN_EXE_hybrid"))
-        .args(args)
-        .current_dir(dir)
-        .output()
-        .expect("run hybrid")
-}
-
 #[test]
 fn a_saved_camera_file_renders_the_same_image_and_bad_ones_name_their_line() {
     let dir = crate::common::scratch("camera-file");
-    let run = |args: &[&str]| {
-        let o = hybrid(args, &dir);
-        assert!(
-            o.status.success(),
-            "{args:?}: {}",
-            String::from_utf8_lossy(&o.stderr)
-        );
-    };
+    let run = |args: &[&str]| crate::common::succeeds(args, &dir);
     let bytes = |f: &str| std::fs::read(dir.join(f)).unwrap();
     for accel in ["native", "embree"] {
         let frame = [
@@ -200,14 +185,6 @@ fn a_saved_camera_file_renders_the_same_image_and_bad_ones_name_their_line() {
         ),
     ] {
         std::fs::write(dir.join(name), text).unwrap();
-        let o = hybrid(&["render", "-c", name, "-f", "bad.png"], &dir);
-        let stderr = String::from_utf8_lossy(&o.stderr);
-        assert_eq!(o.status.code(), Some(2), "{name}: {stderr}");
-        assert_eq!(stderr.lines().count(), 1, "{name}: {stderr}");
-        assert!(
-            stderr.contains(expected),
-            "{name}: '{expected}' not in {stderr}"
-        );
-        assert!(!dir.join("bad.png").exists());
+        crate::common::fails_in_one_line(&["render", "-c", name, "-f", "bad.png"], &dir, expected);
     }
 }

@@ -1,18 +1,9 @@
 //! The program end to end: renders, the no-argument default, and bad input
 //! (exit code 2, one error line, no file under the output name).
 
-use std::path::Path;
-use std::process::{Command, Output};
+use std::process::Output;
 
-use crate::common;
-
-fn hybrid(args: &[&str], dir: &Path) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_hybrid"))
-        .args(args)
-        .current_dir(dir)
-        .output()
-        .expect("run hybrid")
-}
+use crate::common::{self, hybrid};
 
 fn text(o: &Output) -> String {
     format!(

@@ -1,6 +1,7 @@
 //! Helpers shared by the tests.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
 
 use hybrid::scene::{builtin, collada, NormalMode, Scene};
 
@@ -80,4 +81,47 @@ pub fn scratch(name: &str) -> PathBuf {
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).expect("scratch dir");
     dir
+}
+
+/// Runs the `hybrid` binary with `args` in `dir`.
+pub fn hybrid(args: &[&str], dir: &Path) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_hybrid"))
+        .args(args)
+        .current_dir(dir)
+        .output()
+        .expect("run hybrid")
+}
+
+/// `hybrid args` must succeed; its stderr is the failure message.
+pub fn succeeds(args: &[&str], dir: &Path) {
+    let o = hybrid(args, dir);
+    assert!(
+        o.status.success(),
+        "hybrid {}: {}",
+        args.join(" "),
+        String::from_utf8_lossy(&o.stderr)
+    );
+}
+
+/// `hybrid args` must fail with exit 2 and one `hybrid: error:` line
+/// containing `expected`, and leave no new file in `dir`.
+pub fn fails_in_one_line(args: &[&str], dir: &Path, expected: &str) {
+    let files = || -> Vec<PathBuf> {
+        let mut f: Vec<PathBuf> = std::fs::read_dir(dir)
+            .unwrap()
+            .flatten()
+            .map(|e| e.path())
+            .collect();
+        f.sort();
+        f
+    };
+    let before = files();
+    let o = hybrid(args, dir);
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    let what = format!("hybrid {}: {stderr}", args.join(" "));
+    assert_eq!(o.status.code(), Some(2), "{what}");
+    assert_eq!(stderr.lines().count(), 1, "not one line: {what}");
+    assert!(stderr.starts_with("hybrid: error: "), "{what}");
+    assert!(stderr.contains(expected), "'{expected}' not in: {what}");
+    assert_eq!(files(), before, "a failed run left a file: {what}");
 }

@@ -4,42 +4,10 @@
 //! foreign parts are errors.
 
 use std::path::Path;
-use std::process::{Command, Output};
 
 use hybrid::render::part::read_part;
 
-use crate::common;
-
-fn hybrid(args: &[&str], dir: &Path) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_hybrid"))
-        .args(args)
-        .current_dir(dir)
-        .output()
-        .expect("run hybrid")
-}
-
-fn ok(args: &[&str], dir: &Path) {
-    let o = hybrid(args, dir);
-    assert!(
-        o.status.success(),
-        "hybrid {}: {}",
-        args.join(" "),
-        String::from_utf8_lossy(&o.stderr)
-    );
-}
-
-fn fails(args: &[&str], dir: &Path, expected: &str) {
-    let o = hybrid(args, dir);
-    let stderr = String::from_utf8_lossy(&o.stderr);
-    assert_eq!(
-        o.status.code(),
-        Some(2),
-        "hybrid {}: {stderr}",
-        args.join(" ")
-    );
-    assert_eq!(stderr.lines().count(), 1, "not one line: {stderr}");
-    assert!(stderr.contains(expected), "'{expected}' not in: {stderr}");
-}
+use crate::common::{self, fails_in_one_line as fails, succeeds as ok};
 
 const FRAME: [&str; 8] = ["-r", "40", "30", "-s", "8", "-m", "3", "--seed"];
 
