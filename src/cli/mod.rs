@@ -106,10 +106,13 @@ fn one_line(text: &str) -> String {
     let mut lines = text.lines().map(str::trim).filter(|l| !l.is_empty());
     let message = lines.next().unwrap_or("bad command line");
     let message = message.strip_prefix("error: ").unwrap_or(message);
+    // Tips, possible values, and the arguments clap says are missing.
     let hints: Vec<&str> = lines
+        .take_while(|l| !l.starts_with("Usage:"))
         .filter_map(|l| {
             l.strip_prefix("tip: ")
                 .or_else(|| l.strip_prefix('[').and_then(|l| l.strip_suffix(']')))
+                .or_else(|| l.starts_with('-').then_some(l))
         })
         .collect();
     if hints.is_empty() {

@@ -18,6 +18,7 @@ use crate::render::camera_file::CourseCamera;
 use crate::render::film::{check_writable, rate_path, write_files, ToneMap};
 use crate::render::integrator::{BounceView, DirectEstimator, PathSettings, Shading};
 use crate::render::{render, Adaptive, Cell, Progress, RenderSettings};
+use crate::scene::environment::{EnvSampling, Environment};
 use crate::scene::NormalMode;
 
 /// `--accel`: which backend; its options come from the backend's own flags.
@@ -71,6 +72,14 @@ pub struct RenderArgs {
     /// distance to the framed scene's centre).
     #[arg(short = 'd', value_name = "DISTANCE")]
     pub focal_distance: Option<f32>,
+    /// Environment light: an equirectangular map (EXR radiance; +Y up, the
+    /// course's layout), seen by escaped rays and sampled by luminance.
+    #[arg(short = 'e', value_name = "FILE.exr")]
+    pub environment: Option<PathBuf>,
+    /// Sample the environment map uniformly over the sphere instead of by
+    /// luminance (to compare the two).
+    #[arg(long, requires = "environment")]
+    pub env_uniform: bool,
     /// Resolution.
     #[arg(short = 'r', num_args = 2, value_names = ["W", "H"], default_values_t = [480u32, 360])]
     pub resolution: Vec<u32>,
@@ -415,6 +424,13 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
         ),
         Some(degrees) => scene.mesh.crease(degrees),
         None => {}
+    }
+    if let Some(path) = &args.environment {
+        let mut env = Environment::load(path).map_err(|e| e.to_string())?;
+        if args.env_uniform {
+            env.sampling = EnvSampling::Uniform;
+        }
+        scene.environment = Some(std::sync::Arc::new(env));
     }
     say!("{}", scene.summary());
     say!(

@@ -20,7 +20,9 @@
 
 use glam::Vec3;
 
-use super::light::{ambient_radiance, escaped_radiance, pdf_li, sample_li, LightRef, LightSet};
+use super::light::{
+    ambient_radiance, escaped_radiance, pdf_li, sample_li, LightRef, LightSample, LightSet,
+};
 use super::material::{self, emitted, is_specular};
 use super::sampling::{uniform_hemisphere, Frame, Rng, UNIFORM_HEMISPHERE_PDF};
 use crate::accel::ray::SpawnPoint;
@@ -110,7 +112,8 @@ pub struct Integrator<'a, A: Accel> {
     accel: &'a A,
     shading: Shading,
     lights: LightSet,
-    /// Radiance escaped rays see from above (sum of the ambient lights).
+    /// Radiance escaped rays see from above (sum of the ambient lights);
+    /// the environment map adds to it.
     ambient: Vec3,
 }
 
@@ -174,47 +177,76 @@ impl<'a, A: Accel> Integrator<'a, A> {
 
     /// The light-sampling density of reaching what a BSDF-sampled ray from
     /// `prev` found: the emitting primitive `prim` at `q` (normal
-    /// `q_normal`), or nothing (`prim` None: the ambient light along
-    /// `dir`). Counts the `-l` samples each strategy takes.
+    /// `q_normal`). Counts the `-l` samples each strategy takes.
     fn light_pdf(
         &self,
         s: &PathSettings,
         prev: &Previous,
-        prim: Option<u32>,
+        prim: u32,
         q: Vec3,
         q_normal: Vec3,
         dir: Vec3,
     ) -> f32 {
         let n = s.light_samples.max(1) as f32;
-        match prim {
-            None => self.lights.ambient().map_or(0.0, |l| {
-                n * pdf_li(l, prev.from, prev.normal, q, q_normal, dir)
-            }),
-            Some(prim) => match self.lights.light_of(prim) {
-                Some(LightRef::Each(i)) => {
-                    n * pdf_li(
-                        &self.lights.each[i],
+        match self.lights.light_of(prim) {
+            Some(LightRef::Each(i)) => {
+                n * pdf_li(
+                    &self.lights.each[i],
+                    prev.from,
+                    prev.normal,
+                    q,
+                    q_normal,
+                    dir,
+                )
+            }
+            Some(LightRef::Emitter(i)) => {
+                n * self.lights.emitter_pmf(i)
+                    * pdf_li(
+                        &self.lights.emitters[i],
                         prev.from,
                         prev.normal,
                         q,
                         q_normal,
                         dir,
                     )
-                }
-                Some(LightRef::Emitter(i)) => {
-                    n * self.lights.emitter_pmf(i)
-                        * pdf_li(
-                            &self.lights.emitters[i],
-                            prev.from,
-                            prev.normal,
-                            q,
-                            q_normal,
-                            dir,
-                        )
-                }
-                None => 0.0,
-            },
+            }
+            None => 0.0,
         }
+    }
+
+    /// What escaped rays see in direction `dir`: the ambient light above
+    /// the horizon and the environment map.
+    fn sky(&self, dir: Vec3) -> Vec3 {
+        let env = self.lights.environment.as_ref();
+        escaped_radiance(self.ambient, dir) + env.map_or(Vec3::ZERO, |e| e.radiance(dir))
+    }
+
+    /// The light a path counts when its ray from `prev` escapes along
+    /// `dir`: all of it after the camera or a specular event; under MIS,
+    /// each infinite light weighted against its own light-sampling density
+    /// (the ambient light and the map are sampled separately); otherwise
+    /// nothing, light sampling has counted it.
+    fn escaped(&self, s: &PathSettings, prev: &Previous, dir: Vec3) -> Vec3 {
+        if prev.bsdf_pdf == 0.0 {
+            return self.sky(dir);
+        }
+        if s.estimator != DirectEstimator::Mis {
+            return Vec3::ZERO;
+        }
+        let n = s.light_samples.max(1) as f32;
+        let mut le = Vec3::ZERO;
+        let ambient = escaped_radiance(self.ambient, dir);
+        if let (Some(light), true) = (self.lights.ambient(), ambient != Vec3::ZERO) {
+            let pdf = n * pdf_li(light, prev.from, prev.normal, Vec3::ZERO, Vec3::ZERO, dir);
+            le += ambient * power_heuristic(prev.bsdf_pdf, pdf);
+        }
+        if let Some(env) = &self.lights.environment {
+            let radiance = env.radiance(dir);
+            if radiance != Vec3::ZERO {
+                le += radiance * power_heuristic(prev.bsdf_pdf, n * env.pdf(dir));
+            }
+        }
+        le
     }
 
     fn path(
@@ -238,13 +270,7 @@ impl<'a, A: Accel> Integrator<'a, A> {
         loop {
             let Some(hit) = self.accel.closest_hit(&ray, counters) else {
                 if s.counts(depth) {
-                    let le = escaped_radiance(self.ambient, ray.dir);
-                    if prev.bsdf_pdf == 0.0 {
-                        total += beta * le;
-                    } else if mis && le != Vec3::ZERO {
-                        let light = self.light_pdf(s, &prev, None, Vec3::ZERO, Vec3::ZERO, ray.dir);
-                        total += beta * le * power_heuristic(prev.bsdf_pdf, light);
-                    }
+                    total += beta * self.escaped(s, &prev, ray.dir);
                 }
                 break;
             };
@@ -260,7 +286,7 @@ impl<'a, A: Accel> Integrator<'a, A> {
                         let light = self.light_pdf(
                             s,
                             &prev,
-                            Some(hit.prim),
+                            hit.prim,
                             sp.position,
                             sp.geometric_normal,
                             ray.dir,
@@ -371,6 +397,22 @@ impl<'a, A: Accel> Integrator<'a, A> {
                     }
                     sum += acc / n as f32;
                 }
+                if let Some(env) = &self.lights.environment {
+                    let mut acc = Vec3::ZERO;
+                    for _ in 0..n {
+                        let (a, b) = rng.next_2d();
+                        if let Some(es) = env.sample(a, b) {
+                            let ls = LightSample {
+                                wi: es.wi,
+                                distance: f32::INFINITY,
+                                contribution: es.radiance / es.pdf,
+                                pdf: es.pdf,
+                            };
+                            acc += self.unoccluded(v, &ls, 1.0, weighting, counters);
+                        }
+                    }
+                    sum += acc / n as f32;
+                }
             }
             DirectEstimator::Hemisphere => {
                 let groups = self.lights.groups() as u32;
@@ -397,7 +439,7 @@ impl<'a, A: Accel> Integrator<'a, A> {
                                 self.scene.materials[self.scene.material_of(hit.prim) as usize];
                             emitted(&material, -wi.dot(hit.normal))
                         }
-                        None => escaped_radiance(self.ambient, wi),
+                        None => self.sky(wi),
                     };
                     acc += f * incoming * (wi_local.z.abs() / UNIFORM_HEMISPHERE_PDF);
                 }
@@ -422,9 +464,22 @@ impl<'a, A: Accel> Integrator<'a, A> {
     ) -> Vec3 {
         // The ambient light is sampled around the geometric normal: its
         // hemisphere is exactly the directions the surface scatters into.
-        let Some(ls) = sample_li(light, v.at.p, v.at.ng, rng) else {
-            return Vec3::ZERO;
-        };
+        match sample_li(light, v.at.p, v.at.ng, rng) {
+            Some(ls) => self.unoccluded(v, &ls, pick, weighting, counters),
+            None => Vec3::ZERO,
+        }
+    }
+
+    /// The contribution of light sample `ls` (picked with probability
+    /// `pick`) if its shadow ray is clear; see [`Self::light_sample`].
+    fn unoccluded(
+        &self,
+        v: &Vertex,
+        ls: &LightSample,
+        pick: f32,
+        weighting: Option<f32>,
+        counters: &mut TraceCounters,
+    ) -> Vec3 {
         // The geometric normal decides which side is lit.
         if ls.wi.dot(v.at.ng) <= 0.0 {
             return Vec3::ZERO;

@@ -5,10 +5,12 @@
 //! and what escaped rays see.
 
 use std::collections::HashMap;
+use std::sync::Arc;
 
 use glam::Vec3;
 
 use super::sampling::{cosine_hemisphere, luminance, uniform_sphere, Frame, Rng};
+use crate::scene::environment::Environment;
 use crate::scene::{Light, Scene};
 
 /// Incident light from one sample of a light.
@@ -150,6 +152,7 @@ pub fn pdf_li(light: &Light, p: Vec3, n: Vec3, q: Vec3, q_normal: Vec3, wi: Vec3
 ///   mesh) share `-l` samples, each choosing an emitter with probability
 ///   proportional to its power, so a lamp of ten thousand triangles costs
 ///   one shadow ray per sample, not ten thousand;
+/// - the environment map takes `-l` samples;
 /// - delta lights (point, directional) take one sample each.
 pub struct LightSet {
     pub each: Vec<Light>,
@@ -162,6 +165,7 @@ pub struct LightSet {
     by_primitive: HashMap<u32, LightRef>,
     /// Index into `each` of the ambient light, if any.
     ambient: Option<usize>,
+    pub environment: Option<Arc<Environment>>,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -179,6 +183,7 @@ impl LightSet {
             delta: Vec::new(),
             by_primitive: HashMap::new(),
             ambient: None,
+            environment: scene.environment.clone(),
         };
         let mut refs = Vec::with_capacity(scene.lights.len());
         for light in &scene.lights {
@@ -271,9 +276,12 @@ impl LightSet {
     }
 
     /// Sample groups that light sampling (or hemisphere sampling) takes
-    /// `-l` samples of: one per file light, one for all emitters.
+    /// `-l` samples of: one per file light, one for all emitters, one for
+    /// the environment map.
     pub fn groups(&self) -> usize {
-        self.each.len() + usize::from(!self.emitters.is_empty())
+        self.each.len()
+            + usize::from(!self.emitters.is_empty())
+            + usize::from(self.environment.is_some())
     }
 }
 

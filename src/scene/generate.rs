@@ -4,6 +4,7 @@
 use glam::Vec3;
 
 pub use super::builder::SceneBuilder;
+use super::environment::Environment;
 use super::{Material, NormalMode, Scene};
 
 /// An axis-aligned box `[-1, 1]^3` as 12 triangles, wound outward (or
@@ -174,5 +175,88 @@ pub fn sphere_cloud(count: u32, level: u32, seed: u64) -> Scene {
         surface: crate::scene::AreaLight::NO_SURFACE,
     }));
     b.camera(Vec3::new(0.0, 0.4, 3.5), Vec3::ZERO, 50.0, 40.0);
+    b.finish(NormalMode::Smooth)
+}
+
+/// A sky for the environment light: `sky` above the horizon, a dim ground
+/// (a fifth of it) below, and a sun of angular radius `sun_degrees` towards
+/// `sun` (need not be unit) emitting `sun_radiance`. A small bright sun is
+/// where sampling the map by luminance pays most over uniform sampling.
+pub fn sun_and_sky(
+    width: u32,
+    height: u32,
+    sun: Vec3,
+    sun_degrees: f32,
+    sun_radiance: Vec3,
+    sky: Vec3,
+) -> Environment {
+    let sun = sun.normalize();
+    let cos_sun = sun_degrees.to_radians().cos();
+    Environment::from_fn(
+        &format!("generated sun ({sun_degrees} degrees) and sky"),
+        width,
+        height,
+        |d| {
+            if d.dot(sun) >= cos_sun {
+                sun_radiance
+            } else if d.y > 0.0 {
+                sky
+            } else {
+                sky * 0.2
+            }
+        },
+    )
+}
+
+/// The project's demonstration sky (`examples/sky_map.rs` writes it): 512
+/// x 256 texels, a bluish sky of radiance about 0.5, and a sun of 2 degrees
+/// radius at 35 degrees elevation whose radiance (1000) gives a horizontal
+/// surface about as much light as the whole sky does.
+pub fn demo_sky() -> Environment {
+    sun_and_sky(
+        512,
+        256,
+        Vec3::new(-0.6, 35f32.to_radians().tan(), 0.8),
+        2.0,
+        Vec3::new(1000.0, 950.0, 850.0),
+        Vec3::new(0.4, 0.5, 0.65),
+    )
+}
+
+/// Three spheres on a grey plate, no lights of their own: a diffuse one,
+/// rough gold (Beckmann alpha 0.25) and nearly polished silver (alpha
+/// 0.05), for environment lighting (`-e`). No mirror: a sun's sharp
+/// reflection would make pixel-area noise, the same for every way of
+/// sampling the map, the largest error in the image.
+pub fn spheres_on_a_plate() -> Scene {
+    let mut b = SceneBuilder::new("generated: three spheres on a plate");
+    let grey = b.material(Material::lambertian(Vec3::splat(0.6)));
+    let white = b.material(Material::lambertian(Vec3::splat(0.8)));
+    let gold = b.material(Material::Microfacet {
+        alpha: 0.25,
+        eta: Vec3::new(0.143119, 0.374957, 1.44248),
+        k: Vec3::new(3.98316, 2.38572, 1.60322),
+    });
+    let silver = b.material(Material::Microfacet {
+        alpha: 0.05,
+        eta: Vec3::new(0.155265, 0.116723, 0.138342),
+        k: Vec3::new(4.82835, 3.12225, 2.14696),
+    });
+    let (p, t) = plate(4);
+    // The plate lies on y = 0, facing up, 6 x 6.
+    let floor: Vec<Vec3> = p
+        .iter()
+        .map(|v| Vec3::new(v.x * 3.0, 0.0, -v.y * 3.0))
+        .collect();
+    b.mesh(&floor, &t, grey);
+    b.sphere(Vec3::new(-1.1, 0.5, 0.0), 0.5, white);
+    b.sphere(Vec3::new(0.0, 0.5, -0.3), 0.5, gold);
+    b.sphere(Vec3::new(1.1, 0.5, 0.0), 0.5, silver);
+    b.camera(
+        Vec3::new(0.0, 1.6, 4.0),
+        Vec3::new(0.0, 0.4, 0.0),
+        50.0,
+        38.0,
+    );
     b.finish(NormalMode::Smooth)
 }

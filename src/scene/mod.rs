@@ -9,6 +9,7 @@
 pub mod builder;
 pub mod builtin;
 pub mod collada;
+pub mod environment;
 pub mod generate;
 mod light;
 mod material;
@@ -237,6 +238,9 @@ pub struct Scene {
     pub spheres: Vec<Sphere>,
     pub materials: Vec<Material>,
     pub lights: Vec<Light>,
+    /// The environment map (`-e`), lighting the scene from every direction
+    /// rays escape in.
+    pub environment: Option<std::sync::Arc<environment::Environment>>,
     pub camera: CameraSpec,
     /// Bounds of the file's meshes and spheres (lights excluded): what the
     /// canonical camera frames.
@@ -464,8 +468,21 @@ impl Scene {
         let light_kinds: Vec<&str> = self.lights.iter().map(|l| l.kind()).collect();
         let material_kinds: Vec<&str> = self.materials.iter().map(|m| m.kind()).collect();
         let b = self.framing_bounds;
+        let environment = match &self.environment {
+            Some(e) => format!(
+                "; environment map {} ({} x {}, sampled {})",
+                e.name,
+                e.size().0,
+                e.size().1,
+                match e.sampling {
+                    environment::EnvSampling::Importance => "by luminance",
+                    environment::EnvSampling::Uniform => "uniformly",
+                }
+            ),
+            None => String::new(),
+        };
         format!(
-            "scene {}: {} primitives ({} triangles from {} polygons{}, {} spheres); {} lights ({}); {} materials ({}); bounds [{:.3} {:.3} {:.3}] .. [{:.3} {:.3} {:.3}]; {} normals",
+            "scene {}: {} primitives ({} triangles from {} polygons{}, {} spheres); {} lights ({}){environment}; {} materials ({}); bounds [{:.3} {:.3} {:.3}] .. [{:.3} {:.3} {:.3}]; {} normals",
             self.name,
             self.primitive_count(),
             self.triangle_count(),

@@ -14,7 +14,7 @@ use hybrid::scene::Scene;
 
 use crate::common::{self, scene_or_skip};
 
-fn path(estimator: DirectEstimator, max_bounces: u32) -> PathSettings {
+pub(crate) fn path(estimator: DirectEstimator, max_bounces: u32) -> PathSettings {
     PathSettings {
         estimator,
         light_samples: 1,
@@ -45,7 +45,7 @@ fn run(
 }
 
 #[allow(clippy::too_many_arguments)]
-fn run_on(
+pub(crate) fn run_on(
     backend: BackendConfig,
     scene: &Scene,
     w: u32,
@@ -71,7 +71,7 @@ fn run_on(
 
 /// Mean and standard error of the red channel over pixels that share one
 /// expected value.
-fn mean_and_error(film: &Film) -> (f64, f64) {
+pub(crate) fn mean_and_error(film: &Film) -> (f64, f64) {
     let v: Vec<f64> = film.pixels.iter().map(|p| p.x as f64).collect();
     let n = v.len() as f64;
     let mean = v.iter().sum::<f64>() / n;
@@ -204,7 +204,7 @@ fn estimators_agree(rel: &str) {
     estimators_agree_on(rel, &scene, 24);
 }
 
-fn estimators_agree_on(rel: &str, scene: &Scene, seeds: u64) {
+pub(crate) fn estimators_agree_on(rel: &str, scene: &Scene, seeds: u64) {
     let (w, h) = (32u32, 24u32);
     let regions = |film: &Film| -> Vec<f64> {
         let mut out = vec![0.0; 12];

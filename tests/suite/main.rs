@@ -10,6 +10,7 @@ mod cli;
 mod embree_backend;
 mod hostile;
 
+mod environment;
 mod integrators;
 mod loader;
 mod parity;
