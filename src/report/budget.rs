@@ -27,6 +27,10 @@ pub struct Budget {
     pub adaptive_gallery: (u32, f32, u32),
     /// Estimator gallery: spp on the glossy scene, spp on the default one.
     pub estimator_gallery: (u32, u32),
+    /// Environment light study: resolution, sample counts, reference spp.
+    pub environment_resolution: (u32, u32),
+    pub environment_spp: Vec<u32>,
+    pub environment_reference_spp: u32,
 }
 
 impl Budget {
@@ -47,6 +51,9 @@ impl Budget {
                 spp_series: vec![1, 4, 16, 64],
                 adaptive_gallery: (16, 0.1, 256),
                 estimator_gallery: (64, 16),
+                environment_resolution: (64, 48),
+                environment_spp: vec![4, 16, 64],
+                environment_reference_spp: 256,
             }
         } else {
             Budget {
@@ -64,6 +71,9 @@ impl Budget {
                 spp_series: vec![1, 2, 4, 8, 16, 64, 256, 1024],
                 adaptive_gallery: (64, 0.05, 2048),
                 estimator_gallery: (1024, 128),
+                environment_resolution: (160, 120),
+                environment_spp: vec![1, 4, 16, 64, 256],
+                environment_reference_spp: 4096,
             }
         }
     }

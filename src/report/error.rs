@@ -123,7 +123,7 @@ fn settings(
     }
 }
 
-fn rmse(film: &Film, reference: &Film) -> f64 {
+pub(crate) fn rmse(film: &Film, reference: &Film) -> f64 {
     let sum: f64 = film
         .pixels
         .iter()

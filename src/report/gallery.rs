@@ -50,7 +50,7 @@ impl Shooter {
     }
 }
 
-fn image(film: &Film, map: ToneMap) -> RgbImage {
+pub(crate) fn image(film: &Film, map: ToneMap) -> RgbImage {
     RgbImage::from_raw(film.width, film.height, film.to_rgb8(map)).expect("film size")
 }
 

@@ -5,12 +5,13 @@
 //!
 //! Sections, each measuring into typed rows: [`scenes`] (per-scene builds
 //! and traces), [`headline`] (read from the per-scene rows), [`brute`],
-//! [`error`], [`scaling`], [`gallery`]. [`table`] is the one writer of
+//! [`error`], [`environment`], [`scaling`], [`gallery`]. [`table`] is the one writer of
 //! rows as Markdown and JSON; [`budget`] holds the sizes and scene lists;
 //! [`measure`], [`plot`], [`grid`] and [`machine`] are their tools.
 
 pub mod brute;
 pub mod budget;
+pub mod environment;
 pub mod error;
 pub mod fireflies;
 pub mod gallery;
@@ -93,6 +94,8 @@ pub fn run(options: &ReportOptions, log: &mut dyn FnMut(&str)) -> Result<(), Str
     let error_study = error::measure(&budget, threads)?;
     error::plot(&error_study, out)?;
     step("speed against error measured");
+    let environment_study = environment::measure(&budget, threads, out)?;
+    step("environment light measured");
     let scaling = scaling::measure(&budget)?;
     scaling::plot(&scaling, out)?;
     step("scaling measured");
@@ -123,6 +126,7 @@ pub fn run(options: &ReportOptions, log: &mut dyn FnMut(&str)) -> Result<(), Str
         brute_table.markdown()
     );
     md += &error::markdown(&error_study);
+    md += &environment::markdown(&environment_study, &budget);
     md += &scaling::markdown(&scaling);
     md += &gallery_md;
     md += &format!(
@@ -142,6 +146,7 @@ pub fn run(options: &ReportOptions, log: &mut dyn FnMut(&str)) -> Result<(), Str
             "equal_time_seconds": error_study.equal_time(),
             "equal_time": error::equal_time_table(&error_study).json(),
         },
+        "environment": environment::table(&environment_study).json(),
         "scaling": {
             "rows": scaling::table(&scaling).json(),
             "slopes": scaling::slopes_table(&scaling).json(),
