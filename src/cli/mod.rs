@@ -80,7 +80,12 @@ pub fn main() -> i32 {
             return if e.use_stderr() { 2 } else { 0 };
         }
         Err(e) => {
-            eprintln!("hybrid: error: {}", one_line(&e.render().to_string()));
+            let args: Vec<String> = std::env::args().skip(1).collect();
+            let message = match unknown_course_flag(&e, &args) {
+                Some(message) => message,
+                None => one_line(&e.render().to_string()),
+            };
+            eprintln!("hybrid: error: {message}");
             return 2;
         }
     };
@@ -98,6 +103,61 @@ pub fn main() -> i32 {
             2
         }
     }
+}
+
+/// Flags of the course frameworks' renderers that `hybrid` does not take,
+/// and what it offers instead.
+const COURSE_FLAGS: [(&str, &str); 5] = [
+    ("-x", "the ambient-occlusion radius of an older course framework; hybrid has no ambient-occlusion mode: `--normals` checks geometry, `-m 1` renders direct light"),
+    ("-g", "the number of images to generate; hybrid renders one image per run: run it once per --seed, or split one frame with --samples A..B and `hybrid merge`"),
+    ("-R", "ReSTIR; hybrid's direct-light estimators are --estimator mis|light|hemisphere"),
+    ("-w", "a window size; hybrid has no window: -r W H sets the image size and -f FILE the output"),
+    ("-i", "interactive mode; hybrid has no window: it renders to -f FILE (PNG or EXR)"),
+];
+
+/// The course's flags that `hybrid render` takes, for the message about one
+/// it does not.
+const COURSE_FLAGS_TAKEN: &str = "-s -l -t -m -o -e -b -d -c -f -r -p -a -H";
+
+/// A message for an unknown flag that a student may have typed from the
+/// course (`args`: the command line after the program's name): the
+/// command the course's options belong to, or what `hybrid render`
+/// offers instead, in place of clap's generic hint.
+fn unknown_course_flag(e: &clap::Error, args: &[String]) -> Option<String> {
+    use clap::error::{ContextKind, ContextValue};
+    if e.kind() != ErrorKind::UnknownArgument {
+        return None;
+    }
+    let Some(ContextValue::String(arg)) = e.get(ContextKind::InvalidArg) else {
+        return None;
+    };
+    let command = args.first().map(String::as_str);
+    if !matches!(
+        command,
+        Some("render" | "parity" | "report" | "merge" | "help")
+    ) {
+        // The course's `pathtracer -t 8 -s 64 scene.dae`.
+        return Some(format!(
+            "unexpected argument '{arg}': the course's options go after a command: hybrid render {}",
+            args.join(" ")
+        ));
+    }
+    if command != Some("render") {
+        return None;
+    }
+    // `-x5` and `-x` are the same flag.
+    let flag: String = arg.chars().take(2).collect();
+    if arg.starts_with("--") || flag.len() < 2 {
+        return None;
+    }
+    let offered = COURSE_FLAGS
+        .iter()
+        .find(|(f, _)| *f == flag)
+        .map(|(_, instead)| format!(" ({instead})"))
+        .unwrap_or_default();
+    Some(format!(
+        "unknown option '{flag}'{offered}; hybrid render takes the course's {COURSE_FLAGS_TAKEN}, and long options for the rest (see hybrid render --help)"
+    ))
 }
 
 /// clap's error text (message, tips, possible values, usage) as one line:

@@ -111,10 +111,14 @@ pub fn table(study: &EnvironmentStudy) -> Table {
 pub fn markdown(study: &EnvironmentStudy, budget: &Budget) -> String {
     let (w, h) = study.resolution;
     let shown = budget.environment_spp[budget.environment_spp.len() / 2];
-    let ratios: Vec<f64> = study.rows.iter().map(|r| r.uniform / r.importance).collect();
-    let (lo, hi) = ratios
+    let ratios: Vec<f64> = study
+        .rows
         .iter()
-        .fold((f64::INFINITY, 0.0f64), |(lo, hi), &r| (lo.min(r), hi.max(r)));
+        .map(|r| r.uniform / r.importance)
+        .collect();
+    let (lo, hi) = ratios.iter().fold((f64::INFINITY, 0.0f64), |(lo, hi), &r| {
+        (lo.min(r), hi.max(r))
+    });
     format!(
         "## Environment light: sampling the map by luminance or uniformly\n\n\
          Three spheres (diffuse, rough gold, polished silver) on a plate under the project's demonstration sky (`cargo run --release --example sky_map -- sky.exr`: a sun of 2 degrees radius, radiance 1000, over a sky of about 0.5), {w}x{h}, direct light (`-m 1`), MIS, native backend, against a {}-spp render sampled by luminance with another seed. At equal samples, uniform sampling's RMSE is {lo:.1}-{hi:.1}x that of sampling by luminance: uniform directions find the sun (0.03% of the sphere) on one sample in about three thousand, and the surfaces it lights stay speckled until they do.\n\n{}\n\

@@ -179,3 +179,29 @@ fn parity_command_prints_its_tables_and_passes_on_a_shared_scene() {
         text(&o)
     );
 }
+
+#[test]
+fn course_flags_hybrid_lacks_say_what_it_offers_instead() {
+    let dir = common::scratch("course-flags");
+    // A flag of an older course framework: what to use instead.
+    common::fails_in_one_line(
+        &["render", "-x", "0.5"],
+        &dir,
+        "hybrid has no ambient-occlusion mode: `--normals`",
+    );
+    common::fails_in_one_line(&["render", "-g", "4"], &dir, "run it once per --seed");
+    // Any other short flag: the course flags hybrid takes.
+    common::fails_in_one_line(
+        &["render", "-q"],
+        &dir,
+        "hybrid render takes the course's -s -l -t -m -o -e -b -d -c -f -r -p -a -H",
+    );
+    // The course's command line without a command.
+    common::fails_in_one_line(
+        &["-t", "2", "-s", "4", "scene.dae"],
+        &dir,
+        "the course's options go after a command: hybrid render -t 2 -s 4 scene.dae",
+    );
+    // Long options keep clap's spelling hint.
+    common::fails_in_one_line(&["render", "--robst"], &dir, "'--robust'");
+}
