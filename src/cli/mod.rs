@@ -17,6 +17,7 @@ mod merge;
 mod parity;
 mod render;
 mod report;
+mod series;
 
 use std::path::{Path, PathBuf};
 
@@ -48,6 +49,9 @@ pub enum Command {
     Report(report::ReportArgs),
     /// Combine partial renders (-p cells, --samples ranges) into one image.
     Merge(merge::MergeArgs),
+    /// Render one scene over a list of values of one option into a
+    /// labelled contact sheet (a write-up's figure in one command).
+    Series(series::SeriesArgs),
 }
 
 /// On SIGINT, SIGTERM or SIGHUP: remove the temporary files of any write
@@ -94,6 +98,10 @@ pub fn main() -> i32 {
         Command::Parity(args) => parity::run(&args),
         Command::Report(args) => report::run(&args).map(|()| true),
         Command::Merge(args) => merge::run(&args).map(|()| true),
+        Command::Series(args) => {
+            let raw: Vec<String> = std::env::args().skip(2).collect();
+            series::run(&args, &raw).map(|()| true)
+        }
     };
     match outcome {
         Ok(true) => 0,
@@ -134,7 +142,7 @@ fn unknown_course_flag(e: &clap::Error, args: &[String]) -> Option<String> {
     let command = args.first().map(String::as_str);
     if !matches!(
         command,
-        Some("render" | "parity" | "report" | "merge" | "help")
+        Some("render" | "parity" | "report" | "merge" | "series" | "help")
     ) {
         // The course's `pathtracer -t 8 -s 64 scene.dae`.
         return Some(format!(
@@ -142,7 +150,7 @@ fn unknown_course_flag(e: &clap::Error, args: &[String]) -> Option<String> {
             args.join(" ")
         ));
     }
-    if command != Some("render") {
+    if !matches!(command, Some("render" | "series")) {
         return None;
     }
     // `-x5` and `-x` are the same flag.

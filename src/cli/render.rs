@@ -17,7 +17,7 @@ use crate::render::camera::{CameraMode, ThinLens};
 use crate::render::camera_file::CourseCamera;
 use crate::render::film::{check_writable, rate_path, write_files, ToneMap};
 use crate::render::integrator::{BounceView, DirectEstimator, PathSettings, Shading};
-use crate::render::{render, Adaptive, Cell, Progress, RenderSettings};
+use crate::render::{render, Adaptive, Cell, Progress, RenderOutput, RenderSettings};
 use crate::scene::environment::{EnvSampling, Environment};
 use crate::scene::NormalMode;
 
@@ -358,6 +358,15 @@ impl RenderArgs {
         }
     }
 
+    /// PNG tone map: the reference renders' for radiance, none for normals.
+    pub fn tone_map(&self) -> ToneMap {
+        if self.normals {
+            ToneMap::Identity
+        } else {
+            ToneMap::Reference
+        }
+    }
+
     fn output_path(&self) -> PathBuf {
         if let Some(f) = &self.output {
             return f.clone();
@@ -410,6 +419,60 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
     if settings.adaptive.is_some() {
         check_writable(&rate_path(&output)).map_err(|e| e.to_string())?;
     }
+    let result = render_with(args, &settings)?;
+    let backend = args.backend();
+    let image = result
+        .film
+        .file(&output, args.tone_map())
+        .map_err(|e| e.to_string())?;
+    let c = result.counters;
+    let frame = match settings.cell {
+        Some(cell) => format!(
+            "the {}x{} cell at ({}, {}) of {}x{}",
+            cell.width, cell.height, cell.x, cell.y, settings.width, settings.height
+        ),
+        None => format!("{}x{}", settings.width, settings.height),
+    };
+    let samples = match settings.sample_range {
+        Some((a, b)) => format!("samples {a}..{b} of {} spp", settings.samples),
+        None => format!("{} spp", settings.samples),
+    };
+    let mut line = format!(
+        "rendered {frame} at {samples} in {:.2} s: {} rays, {:.2} Mrays/s",
+        result.seconds,
+        c.rays,
+        result.mrays_per_second()
+    );
+    if !matches!(backend, BackendConfig::Embree(_)) && c.rays > 0 {
+        line += &format!(
+            ", {:.1} box tests and {:.1} primitive tests per ray",
+            c.box_tests as f64 / c.rays as f64,
+            c.prim_tests as f64 / c.rays as f64
+        );
+    }
+    say!("{line}");
+    // The image and its sample-rate companion are written together or
+    // not at all.
+    if settings.adaptive.is_some() {
+        let rate = rate_path(&output);
+        let rate_image = result.film.rate_file(settings.samples);
+        write_files(&[(&output, image), (&rate, rate_image)]).map_err(|e| e.to_string())?;
+        say!(
+            "adaptive sampling: {:.1} samples per pixel on average; rate image {}",
+            result.mean_samples(),
+            rate.display()
+        );
+    } else {
+        write_files(&[(&output, image)]).map_err(|e| e.to_string())?;
+    }
+    say!("wrote {}", output.display());
+    Ok(())
+}
+
+/// Loads the scene, builds the backend and renders as `args` and
+/// `settings` say, printing the scene summary, the build and a progress
+/// bar; writes nothing but the camera file (`--save-camera`).
+pub fn render_with(args: &RenderArgs, settings: &RenderSettings) -> Result<RenderOutput, String> {
     let normal_mode = if args.flat {
         NormalMode::Flat
     } else {
@@ -486,55 +549,8 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
     ) {
         bar.set_style(style.progress_chars("=> "));
     }
-    let result = render(&scene, &accel, &settings, &Bar(bar.clone()));
+    let result = render(&scene, &accel, settings, &Bar(bar.clone()));
     bar.finish_and_clear();
 
-    let map = if args.normals {
-        ToneMap::Identity
-    } else {
-        ToneMap::Reference
-    };
-    let image = result.film.file(&output, map).map_err(|e| e.to_string())?;
-    let c = result.counters;
-    let frame = match settings.cell {
-        Some(cell) => format!(
-            "the {}x{} cell at ({}, {}) of {}x{}",
-            cell.width, cell.height, cell.x, cell.y, settings.width, settings.height
-        ),
-        None => format!("{}x{}", settings.width, settings.height),
-    };
-    let samples = match settings.sample_range {
-        Some((a, b)) => format!("samples {a}..{b} of {} spp", settings.samples),
-        None => format!("{} spp", settings.samples),
-    };
-    let mut line = format!(
-        "rendered {frame} at {samples} in {:.2} s: {} rays, {:.2} Mrays/s",
-        result.seconds,
-        c.rays,
-        result.mrays_per_second()
-    );
-    if !matches!(backend, BackendConfig::Embree(_)) && c.rays > 0 {
-        line += &format!(
-            ", {:.1} box tests and {:.1} primitive tests per ray",
-            c.box_tests as f64 / c.rays as f64,
-            c.prim_tests as f64 / c.rays as f64
-        );
-    }
-    say!("{line}");
-    // The image and its sample-rate companion are written together or
-    // not at all.
-    if settings.adaptive.is_some() {
-        let rate = rate_path(&output);
-        let rate_image = result.film.rate_file(settings.samples);
-        write_files(&[(&output, image), (&rate, rate_image)]).map_err(|e| e.to_string())?;
-        say!(
-            "adaptive sampling: {:.1} samples per pixel on average; rate image {}",
-            result.mean_samples(),
-            rate.display()
-        );
-    } else {
-        write_files(&[(&output, image)]).map_err(|e| e.to_string())?;
-    }
-    say!("wrote {}", output.display());
-    Ok(())
+    Ok(result)
 }

@@ -118,6 +118,8 @@ pub enum ImageFile<'a> {
     },
     /// The adaptive sampling rate.
     Rate { film: &'a Film, cap: u32 },
+    /// An image composed from films (a contact sheet), as PNG.
+    Picture(&'a image::RgbImage),
 }
 
 impl ImageFile<'_> {
@@ -140,6 +142,9 @@ impl ImageFile<'_> {
                     .collect();
                 png(out, film, &rgb).map_err(|e| e.to_string())
             }
+            ImageFile::Picture(img) => img
+                .write_to(out, image::ImageFormat::Png)
+                .map_err(|e| e.to_string()),
         }
     }
 }

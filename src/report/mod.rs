@@ -22,6 +22,7 @@ pub mod measure;
 pub mod plot;
 pub mod scaling;
 pub mod scenes;
+pub mod sheet;
 pub mod table;
 
 use std::path::{Path, PathBuf};

@@ -15,4 +15,5 @@ mod integrators;
 mod loader;
 mod parity;
 mod report;
+mod series;
 mod split;
