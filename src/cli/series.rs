@@ -6,6 +6,7 @@
 use std::path::{Path, PathBuf};
 
 use clap::{Args, Parser};
+use image::RgbImage;
 
 use super::render::{render_with, RenderArgs};
 use crate::render::film::{check_writable, write_files, ImageFile};
@@ -14,7 +15,8 @@ use crate::report::sheet::sheet;
 
 /// Options a series can vary, as written after `--vary` (one letter: the
 /// short flag; otherwise the long one).
-pub const VARIABLE: [&str; 17] = [
+pub const VARIABLE: [&str; 18] = [
+    "scene",
     "s",
     "l",
     "m",
@@ -39,7 +41,8 @@ pub struct SeriesArgs {
     /// The option and its values: `l=1,4,16,64`, `m=0..5` (both ends
     /// included), `s=1,2,4,...,1024` (continued by the ratio, or the step,
     /// of the two values before `...`), `estimator=hemisphere,light`,
-    /// `accel=native,embree,none`.
+    /// `accel=native,embree,none`, `scene=a.dae,b.dae`. With `-a`, each
+    /// render's sample-rate image follows it on the sheet.
     #[arg(long, value_name = "OPTION=VALUES")]
     pub vary: String,
     /// Tiles per row of the contact sheet (default: up to 4).
@@ -127,6 +130,15 @@ fn continued(parts: &[&str], at: usize) -> Option<Vec<String>> {
     (out.last().map(String::as_str) == Some(&format_number(end))).then_some(out)
 }
 
+/// A render time as a caption shows it: milliseconds under a second.
+fn duration(seconds: f64) -> String {
+    if seconds < 1.0 {
+        format!("{:.0} ms", seconds * 1e3)
+    } else {
+        format!("{seconds:.2} s")
+    }
+}
+
 fn format_number(v: f64) -> String {
     if v.fract() == 0.0 {
         format!("{}", v as i64)
@@ -167,15 +179,18 @@ fn fixed_options(raw: &[String], scene: Option<&Path>) -> String {
 
 pub fn run(args: &SeriesArgs, raw: &[String]) -> Result<(), String> {
     let (name, values) = parse_vary(&args.vary)?;
-    let scene_name = args
-        .render
-        .input
-        .scene
-        .as_ref()
-        .and_then(|p| p.file_name())
-        .and_then(|s| s.to_str())
-        .unwrap_or("cornell.dae")
-        .to_string();
+    let scene_name = match name.as_str() {
+        "scene" => "scenes".to_string(),
+        _ => args
+            .render
+            .input
+            .scene
+            .as_ref()
+            .and_then(|p| p.file_name())
+            .and_then(|s| s.to_str())
+            .unwrap_or("cornell.dae")
+            .to_string(),
+    };
     let sheet_path = args.render.output.clone().unwrap_or_else(|| {
         PathBuf::from(format!(
             "{}_{name}.png",
@@ -209,14 +224,19 @@ pub fn run(args: &SeriesArgs, raw: &[String]) -> Result<(), String> {
     for value in &values {
         let mut argv = vec!["hybrid series".to_string()];
         argv.extend(raw.iter().cloned());
-        argv.push(flag(&name));
-        argv.push(value.clone());
-        let variant = Variant::try_parse_from(&argv).map_err(|e| {
+        if name != "scene" {
+            argv.push(flag(&name));
+            argv.push(value.clone());
+        }
+        let mut variant = Variant::try_parse_from(&argv).map_err(|e| {
             format!(
                 "--vary {name}={value}: {}",
                 super::one_line(&e.render().to_string())
             )
         })?;
+        if name == "scene" {
+            variant.series.render.input.scene = Some(PathBuf::from(value));
+        }
         let settings = variant
             .series
             .render
@@ -231,11 +251,28 @@ pub fn run(args: &SeriesArgs, raw: &[String]) -> Result<(), String> {
         say!("series: {name} = {value}");
         let out = render_with(render_args, settings)?;
         say!("series: {name} = {value} rendered in {:.2} s", out.seconds);
+        let shown = match name.as_str() {
+            "scene" => Path::new(value)
+                .file_name()
+                .and_then(|f| f.to_str())
+                .unwrap_or(value),
+            _ => value,
+        };
         tiles.push((
             image(&out.film, render_args.tone_map()),
-            format!("{name} = {value} · {:.2} s", out.seconds),
+            format!("{name} = {shown} · {}", duration(out.seconds)),
         ));
-        films.push((single(value), out.film, render_args.tone_map()));
+        // Adaptive sampling: the rate image follows its render.
+        if settings.adaptive.is_some() {
+            let rgb = out.film.rate_rgb8(settings.samples);
+            let rate = RgbImage::from_raw(out.film.width, out.film.height, rgb).expect("film size");
+            tiles.push((rate, format!("rate · {:.0} spp mean", out.mean_samples())));
+        }
+        films.push((
+            single(shown.trim_end_matches(".dae")),
+            out.film,
+            render_args.tone_map(),
+        ));
     }
     let fixed = fixed_options(raw, args.render.input.scene.as_deref());
     let title = format!(
@@ -245,7 +282,11 @@ pub fn run(args: &SeriesArgs, raw: &[String]) -> Result<(), String> {
         } else {
             fixed
         },
-        flag(&name)
+        if name == "scene" {
+            name.clone()
+        } else {
+            flag(&name)
+        }
     );
     let columns = args.columns.unwrap_or(match tiles.len() {
         n @ 0..=4 => n,

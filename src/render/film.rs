@@ -106,6 +106,14 @@ impl Film {
     pub fn rate_file(&self, cap: u32) -> ImageFile<'_> {
         ImageFile::Rate { film: self, cap }
     }
+
+    /// The sample-rate image's RGB bytes.
+    pub fn rate_rgb8(&self, cap: u32) -> Vec<u8> {
+        self.samples
+            .iter()
+            .flat_map(|&n| rate_colour(n as f32 / cap.max(1) as f32))
+            .collect()
+    }
 }
 
 /// An image to be written from a film.
@@ -135,12 +143,7 @@ impl ImageFile<'_> {
                 png(out, film, &film.to_rgb8(map)).map_err(|e| e.to_string())
             }
             ImageFile::Rate { film, cap } => {
-                let rgb: Vec<u8> = film
-                    .samples
-                    .iter()
-                    .flat_map(|&n| rate_colour(n as f32 / cap.max(1) as f32))
-                    .collect();
-                png(out, film, &rgb).map_err(|e| e.to_string())
+                png(out, film, &film.rate_rgb8(cap)).map_err(|e| e.to_string())
             }
             ImageFile::Picture(img) => img
                 .write_to(out, image::ImageFormat::Png)
