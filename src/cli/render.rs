@@ -80,6 +80,10 @@ pub struct RenderArgs {
     /// luminance (to compare the two).
     #[arg(long, requires = "environment")]
     pub env_uniform: bool,
+    /// What camera rays that miss the scene see: the sky (the ambient
+    /// light and -e map, physical) or black, as in the course's gallery.
+    #[arg(long, value_parser = ["sky", "black"], default_value = "sky")]
+    pub background: String,
     /// Resolution.
     #[arg(short = 'r', num_args = 2, value_names = ["W", "H"], default_values_t = [480u32, 360])]
     pub resolution: Vec<u32>,
@@ -308,6 +312,32 @@ impl RenderArgs {
                 MAX_PIXELS * FILM_BYTES_PER_PIXEL >> 20
             ));
         }
+        let mut ignored = Vec::new();
+        if self.normals {
+            if self.hemisphere || self.estimator != DirectEstimator::default() {
+                ignored.push("-H/--estimator");
+            }
+            if self.light_samples != 1 {
+                ignored.push("-l");
+            }
+            if self.max_bounces != 1 {
+                ignored.push("-m");
+            }
+            if self.environment.is_some() {
+                ignored.push("-e");
+            }
+        }
+        for flag in ignored {
+            eprintln!("hybrid: warning: {flag} is ignored with --normals (normal shading traces camera rays only)");
+        }
+        if let Some(a) = &adaptive {
+            if a.batch > self.samples {
+                eprintln!(
+                    "hybrid: warning: -a {} {}: the batch is larger than -s {}, so every pixel takes the -s samples and none stops early",
+                    a.batch, a.tolerance, self.samples
+                );
+            }
+        }
         let shading = if self.normals {
             Shading::Normals
         } else {
@@ -322,6 +352,7 @@ impl RenderArgs {
                 accumulate: self.accumulate == 1,
                 view: self.only,
                 russian_roulette: self.russian_roulette,
+                black_background: self.background == "black",
             })
         };
         Ok(RenderSettings {

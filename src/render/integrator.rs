@@ -67,6 +67,10 @@ pub struct PathSettings {
     pub view: BounceView,
     /// Russian roulette continuation probability, from the second vertex on.
     pub russian_roulette: Option<f32>,
+    /// Camera rays that escape see black instead of the sky (the ambient
+    /// light and the environment map), as in the course's gallery; the sky
+    /// still lights the scene.
+    pub black_background: bool,
 }
 
 impl Default for PathSettings {
@@ -78,6 +82,7 @@ impl Default for PathSettings {
             accumulate: true,
             view: BounceView::All,
             russian_roulette: None,
+            black_background: false,
         }
     }
 }
@@ -269,7 +274,7 @@ impl<'a, A: Accel> Integrator<'a, A> {
         let mut depth = 0u32;
         loop {
             let Some(hit) = self.accel.closest_hit(&ray, counters) else {
-                if s.counts(depth) {
+                if s.counts(depth) && !(depth == 0 && s.black_background) {
                     total += beta * self.escaped(s, &prev, ray.dir);
                 }
                 break;

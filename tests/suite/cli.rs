@@ -205,3 +205,47 @@ fn course_flags_hybrid_lacks_say_what_it_offers_instead() {
     // Long options keep clap's spelling hint.
     common::fails_in_one_line(&["render", "--robst"], &dir, "'--robust'");
 }
+
+#[test]
+fn options_a_mode_ignores_are_warned_about_in_one_line_each() {
+    let dir = common::scratch("ignored-options");
+    let o = hybrid(
+        &[
+            "render",
+            "--normals",
+            "-l",
+            "4",
+            "-m",
+            "3",
+            "-r",
+            "8",
+            "6",
+            "-f",
+            "n.png",
+        ],
+        &dir,
+    );
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{}", text(&o));
+    assert!(
+        stderr.contains("warning: -l is ignored with --normals"),
+        "{}",
+        text(&o)
+    );
+    assert!(
+        stderr.contains("warning: -m is ignored with --normals"),
+        "{}",
+        text(&o)
+    );
+    let o = hybrid(
+        &[
+            "render", "-a", "64", "0.05", "-s", "16", "-r", "8", "6", "-f", "a.png",
+        ],
+        &dir,
+    );
+    assert!(
+        String::from_utf8_lossy(&o.stderr).contains("the batch is larger than -s 16"),
+        "{}",
+        text(&o)
+    );
+}

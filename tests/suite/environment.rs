@@ -289,3 +289,45 @@ fn render_with_a_map_from_the_command_line_and_refuse_bad_maps() {
     );
     fails_in_one_line(&["render", "--env-uniform", "-f", "x.png"], &dir, "-e");
 }
+
+#[test]
+fn a_black_background_hides_the_sky_from_camera_rays_but_keeps_its_light() {
+    let dir = scratch("environment-background");
+    demo_sky()
+        .save(&dir.join("sky.exr"))
+        .expect("write the map");
+    let corner_and_mean = |background: &str| {
+        let out = format!("{background}.exr");
+        succeeds(
+            &[
+                "render",
+                "-e",
+                "sky.exr",
+                "--background",
+                background,
+                "-r",
+                "32",
+                "24",
+                "-s",
+                "4",
+                "-f",
+                &out,
+            ],
+            &dir,
+        );
+        let img = image::open(dir.join(&out)).unwrap().to_rgb32f();
+        let mean: f32 = img.pixels().map(|p| p.0[0]).sum::<f32>() / (32.0 * 24.0);
+        // The default scene's box is open towards the camera: its top-left
+        // corner sees past it.
+        (img.get_pixel(0, 0).0[0], mean)
+    };
+    let (sky_corner, sky_mean) = corner_and_mean("sky");
+    let (black_corner, black_mean) = corner_and_mean("black");
+    println!("corner: sky {sky_corner}, black {black_corner}; mean: {sky_mean} vs {black_mean}");
+    assert!(sky_corner > 0.0, "the sky is not seen past the box");
+    assert_eq!(black_corner, 0.0, "--background black still shows the sky");
+    assert!(
+        black_mean > 0.0 && black_mean < sky_mean,
+        "the sky no longer lights the box"
+    );
+}
