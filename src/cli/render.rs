@@ -16,7 +16,7 @@ use crate::choice::Choice;
 use crate::render::camera::{CameraMode, ThinLens};
 use crate::render::camera_file::CourseCamera;
 use crate::render::film::{check_writable, rate_path, write_files, ToneMap};
-use crate::render::integrator::{BounceView, DirectEstimator, PathSettings, Shading};
+use crate::render::integrator::{Background, BounceView, DirectEstimator, PathSettings, Shading};
 use crate::render::{render, Adaptive, Cell, Progress, RenderOutput, RenderSettings};
 use crate::scene::environment::{EnvSampling, Environment};
 use crate::scene::NormalMode;
@@ -82,8 +82,8 @@ pub struct RenderArgs {
     pub env_uniform: bool,
     /// What camera rays that miss the scene see: the sky (the ambient
     /// light and -e map, physical) or black, as in the course's gallery.
-    #[arg(long, value_parser = ["sky", "black"], default_value = "sky")]
-    pub background: String,
+    #[arg(long, value_parser = choice::<Background>(), default_value = Background::default().name())]
+    pub background: Background,
     /// Resolution.
     #[arg(short = 'r', num_args = 2, value_names = ["W", "H"], default_values_t = [480u32, 360])]
     pub resolution: Vec<u32>,
@@ -269,10 +269,7 @@ impl RenderArgs {
                 radius,
                 focal_distance: d.unwrap_or(0.0),
             }),
-            (None, Some(d)) => {
-                eprintln!("hybrid: warning: -d {d} is ignored without a lens radius (-b)");
-                None
-            }
+            (None, Some(_)) => None,
             (None, None) => None,
         };
         let course_camera = match &self.camera_file {
@@ -312,32 +309,6 @@ impl RenderArgs {
                 MAX_PIXELS * FILM_BYTES_PER_PIXEL >> 20
             ));
         }
-        let mut ignored = Vec::new();
-        if self.normals {
-            if self.hemisphere || self.estimator != DirectEstimator::default() {
-                ignored.push("-H/--estimator");
-            }
-            if self.light_samples != 1 {
-                ignored.push("-l");
-            }
-            if self.max_bounces != 1 {
-                ignored.push("-m");
-            }
-            if self.environment.is_some() {
-                ignored.push("-e");
-            }
-        }
-        for flag in ignored {
-            eprintln!("hybrid: warning: {flag} is ignored with --normals (normal shading traces camera rays only)");
-        }
-        if let Some(a) = &adaptive {
-            if a.batch > self.samples {
-                eprintln!(
-                    "hybrid: warning: -a {} {}: the batch is larger than -s {}, so every pixel takes the -s samples and none stops early",
-                    a.batch, a.tolerance, self.samples
-                );
-            }
-        }
         let shading = if self.normals {
             Shading::Normals
         } else {
@@ -352,7 +323,7 @@ impl RenderArgs {
                 accumulate: self.accumulate == 1,
                 view: self.only,
                 russian_roulette: self.russian_roulette,
-                black_background: self.background == "black",
+                background: self.background,
             })
         };
         Ok(RenderSettings {
@@ -387,6 +358,44 @@ impl RenderArgs {
             }),
             AccelArg::None => BackendConfig::Brute,
         }
+    }
+
+    /// Options this run ignores, one line each (printed once per command,
+    /// as `hybrid: warning:` lines).
+    pub fn warnings(&self) -> Vec<String> {
+        let mut out = Vec::new();
+        if let (None, Some(d)) = (self.lens_radius, self.focal_distance) {
+            out.push(format!("-d {d} is ignored without a lens radius (-b)"));
+        }
+        if self.normals {
+            let mut ignored = Vec::new();
+            if self.hemisphere || self.estimator != DirectEstimator::default() {
+                ignored.push("-H/--estimator");
+            }
+            if self.light_samples != 1 {
+                ignored.push("-l");
+            }
+            if self.max_bounces != 1 {
+                ignored.push("-m");
+            }
+            if self.environment.is_some() {
+                ignored.push("-e");
+            }
+            for flag in ignored {
+                out.push(format!(
+                    "{flag} is ignored with --normals (normal shading traces camera rays only)"
+                ));
+            }
+        }
+        if let Some(a) = &self.adaptive {
+            if a[0] > self.samples as f64 {
+                out.push(format!(
+                    "-a {} {}: the batch is larger than -s {}, so every pixel takes the -s samples and none stops early",
+                    a[0], a[1], self.samples
+                ));
+            }
+        }
+        out
     }
 
     /// PNG tone map: the reference renders' for radiance, none for normals.
@@ -430,6 +439,9 @@ impl Progress for Bar {
 
 pub fn run(args: &RenderArgs) -> Result<(), String> {
     let settings = args.settings()?;
+    for warning in args.warnings() {
+        eprintln!("hybrid: warning: {warning}");
+    }
     let output = args.output_path();
     match output
         .extension()

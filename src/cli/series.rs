@@ -6,7 +6,6 @@
 use std::path::{Path, PathBuf};
 
 use clap::{Args, Parser};
-use image::RgbImage;
 
 use super::render::{render_with, RenderArgs};
 use crate::render::film::{check_writable, write_files, ImageFile};
@@ -117,15 +116,16 @@ fn continued(parts: &[&str], at: usize) -> Option<Vec<String>> {
         number(parts[at - 1])?,
         number(parts[at + 1])?,
     );
+    if b <= a {
+        return None;
+    }
     let mut out: Vec<String> = parts[..at].iter().map(|p| p.to_string()).collect();
-    let geometric = a > 0.0 && b > a && (b / a).fract() == 0.0;
-    let mut v = b;
-    loop {
-        v = if geometric { v * (b / a) } else { v + (b - a) };
-        if !(b > a) || v > end + 1e-9 || out.len() >= 64 {
-            break;
-        }
+    let geometric = a > 0.0 && (b / a).fract() == 0.0;
+    let next = |v: f64| if geometric { v * (b / a) } else { v + (b - a) };
+    let mut v = next(b);
+    while v <= end + 1e-9 && out.len() < 64 {
         out.push(format_number(v));
+        v = next(v);
     }
     (out.last().map(String::as_str) == Some(&format_number(end))).then_some(out)
 }
@@ -245,6 +245,12 @@ pub fn run(args: &SeriesArgs, raw: &[String]) -> Result<(), String> {
         variants.push((value.clone(), variant.series.render, settings));
     }
 
+    // The options every value shares, warned about once.
+    if let Some((_, first, _)) = variants.first() {
+        for warning in first.warnings() {
+            eprintln!("hybrid: warning: {warning}");
+        }
+    }
     let mut tiles = Vec::new();
     let mut films = Vec::new();
     for (value, render_args, settings) in &variants {
@@ -264,8 +270,7 @@ pub fn run(args: &SeriesArgs, raw: &[String]) -> Result<(), String> {
         ));
         // Adaptive sampling: the rate image follows its render.
         if settings.adaptive.is_some() {
-            let rgb = out.film.rate_rgb8(settings.samples);
-            let rate = RgbImage::from_raw(out.film.width, out.film.height, rgb).expect("film size");
+            let rate = out.film.rate_image(settings.samples);
             tiles.push((rate, format!("rate · {:.0} spp mean", out.mean_samples())));
         }
         films.push((

@@ -107,12 +107,15 @@ impl Film {
         ImageFile::Rate { film: self, cap }
     }
 
-    /// The sample-rate image's RGB bytes.
-    pub fn rate_rgb8(&self, cap: u32) -> Vec<u8> {
-        self.samples
+    /// The sample-rate image: rate = samples / cap, coloured by
+    /// [`rate_colour`].
+    pub fn rate_image(&self, cap: u32) -> image::RgbImage {
+        let rgb = self
+            .samples
             .iter()
             .flat_map(|&n| rate_colour(n as f32 / cap.max(1) as f32))
-            .collect()
+            .collect();
+        image::RgbImage::from_raw(self.width, self.height, rgb).expect("film size")
     }
 }
 
@@ -143,7 +146,7 @@ impl ImageFile<'_> {
                 png(out, film, &film.to_rgb8(map)).map_err(|e| e.to_string())
             }
             ImageFile::Rate { film, cap } => {
-                png(out, film, &film.rate_rgb8(cap)).map_err(|e| e.to_string())
+                png(out, film, film.rate_image(cap).as_raw()).map_err(|e| e.to_string())
             }
             ImageFile::Picture(img) => img
                 .write_to(out, image::ImageFormat::Png)

@@ -21,7 +21,8 @@
 use glam::Vec3;
 
 use super::light::{
-    ambient_radiance, escaped_radiance, pdf_li, sample_li, LightRef, LightSample, LightSet,
+    ambient_radiance, escaped_radiance, pdf_li, sample_environment, sample_li, LightRef,
+    LightSample, LightSet,
 };
 use super::material::{self, emitted, is_specular};
 use super::sampling::{uniform_hemisphere, Frame, Rng, UNIFORM_HEMISPHERE_PDF};
@@ -56,6 +57,19 @@ pub enum BounceView {
 
 crate::choice!(BounceView { All => "all", Direct => "direct", Indirect => "indirect" });
 
+/// What camera rays that miss the scene see.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum Background {
+    /// The sky: the ambient light above the horizon and the environment
+    /// map (physical).
+    #[default]
+    Sky,
+    /// Black, as in the course's gallery; the sky still lights the scene.
+    Black,
+}
+
+crate::choice!(Background { Sky => "sky", Black => "black" });
+
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct PathSettings {
     pub estimator: DirectEstimator,
@@ -67,10 +81,7 @@ pub struct PathSettings {
     pub view: BounceView,
     /// Russian roulette continuation probability, from the second vertex on.
     pub russian_roulette: Option<f32>,
-    /// Camera rays that escape see black instead of the sky (the ambient
-    /// light and the environment map), as in the course's gallery; the sky
-    /// still lights the scene.
-    pub black_background: bool,
+    pub background: Background,
 }
 
 impl Default for PathSettings {
@@ -82,7 +93,7 @@ impl Default for PathSettings {
             accumulate: true,
             view: BounceView::All,
             russian_roulette: None,
-            black_background: false,
+            background: Background::Sky,
         }
     }
 }
@@ -241,14 +252,16 @@ impl<'a, A: Accel> Integrator<'a, A> {
         let n = s.light_samples.max(1) as f32;
         let mut le = Vec3::ZERO;
         let ambient = escaped_radiance(self.ambient, dir);
-        if let (Some(light), true) = (self.lights.ambient(), ambient != Vec3::ZERO) {
-            let pdf = n * pdf_li(light, prev.from, prev.normal, Vec3::ZERO, Vec3::ZERO, dir);
-            le += ambient * power_heuristic(prev.bsdf_pdf, pdf);
+        if ambient != Vec3::ZERO {
+            if let Some(light) = self.lights.ambient() {
+                let pdf = n * pdf_li(light, prev.from, prev.normal, Vec3::ZERO, Vec3::ZERO, dir);
+                le += ambient * power_heuristic(prev.bsdf_pdf, pdf);
+            }
         }
         if let Some(env) = &self.lights.environment {
-            let radiance = env.radiance(dir);
+            let (radiance, pdf) = env.radiance_and_pdf(dir);
             if radiance != Vec3::ZERO {
-                le += radiance * power_heuristic(prev.bsdf_pdf, n * env.pdf(dir));
+                le += radiance * power_heuristic(prev.bsdf_pdf, n * pdf);
             }
         }
         le
@@ -274,7 +287,7 @@ impl<'a, A: Accel> Integrator<'a, A> {
         let mut depth = 0u32;
         loop {
             let Some(hit) = self.accel.closest_hit(&ray, counters) else {
-                if s.counts(depth) && !(depth == 0 && s.black_background) {
+                if s.counts(depth) && !(depth == 0 && s.background == Background::Black) {
                     total += beta * self.escaped(s, &prev, ray.dir);
                 }
                 break;
@@ -405,14 +418,7 @@ impl<'a, A: Accel> Integrator<'a, A> {
                 if let Some(env) = &self.lights.environment {
                     let mut acc = Vec3::ZERO;
                     for _ in 0..n {
-                        let (a, b) = rng.next_2d();
-                        if let Some(es) = env.sample(a, b) {
-                            let ls = LightSample {
-                                wi: es.wi,
-                                distance: f32::INFINITY,
-                                contribution: es.radiance / es.pdf,
-                                pdf: es.pdf,
-                            };
+                        if let Some(ls) = sample_environment(env, rng) {
                             acc += self.unoccluded(v, &ls, 1.0, weighting, counters);
                         }
                     }

@@ -130,6 +130,19 @@ pub fn sample_li(light: &Light, p: Vec3, n: Vec3, rng: &mut Rng) -> Option<Light
     }
 }
 
+/// Samples the environment map (`-e`): a direction drawn from the map as a
+/// light sample at infinity.
+pub fn sample_environment(env: &Environment, rng: &mut Rng) -> Option<LightSample> {
+    let (u, v) = rng.next_2d();
+    let s = env.sample(u, v)?;
+    Some(LightSample {
+        wi: s.wi,
+        distance: f32::INFINITY,
+        contribution: s.radiance / s.pdf,
+        pdf: s.pdf,
+    })
+}
+
 /// The density with which [`sample_li`] on `light` from `p` (normal `n`)
 /// draws the direction that reaches point `q` of the light (normal
 /// `q_normal`), or direction `wi` for the ambient light.

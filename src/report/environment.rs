@@ -45,11 +45,14 @@ fn scene_with(sampling: EnvSampling) -> Scene {
 /// middle sample count side by side into `out`.
 pub fn measure(budget: &Budget, threads: usize, out: &Path) -> Result<EnvironmentStudy, String> {
     let (w, h) = budget.environment_resolution;
-    let frame = |scene: &Scene, spp: u32, seed: u64| -> Result<Film, String> {
-        let accel = BackendConfig::NATIVE
-            .with_threads(threads)
-            .build(scene)
-            .map_err(|e| e.to_string())?;
+    let importance = scene_with(EnvSampling::Importance);
+    let uniform = scene_with(EnvSampling::Uniform);
+    // The two scenes differ only in how the map is sampled: one BVH.
+    let accel = BackendConfig::NATIVE
+        .with_threads(threads)
+        .build(&importance)
+        .map_err(|e| e.to_string())?;
+    let frame = |scene: &Scene, spp: u32, seed: u64| -> Film {
         let settings = RenderSettings {
             width: w,
             height: h,
@@ -63,16 +66,14 @@ pub fn measure(budget: &Budget, threads: usize, out: &Path) -> Result<Environmen
             camera: crate::render::camera::CameraMode::Node,
             ..RenderSettings::default()
         };
-        Ok(render(scene, &accel, &settings, &Silent).film)
+        render(scene, &accel, &settings, &Silent).film
     };
-    let importance = scene_with(EnvSampling::Importance);
-    let uniform = scene_with(EnvSampling::Uniform);
-    let reference = frame(&importance, budget.environment_reference_spp, 424_242)?;
+    let reference = frame(&importance, budget.environment_reference_spp, 424_242);
     let shown = budget.environment_spp[budget.environment_spp.len() / 2];
     let mut rows = Vec::new();
     for &spp in &budget.environment_spp {
-        let u = frame(&uniform, spp, 1)?;
-        let i = frame(&importance, spp, 1)?;
+        let u = frame(&uniform, spp, 1);
+        let i = frame(&importance, spp, 1);
         if spp == shown {
             let images = [image(&u, ToneMap::Reference), image(&i, ToneMap::Reference)];
             write_grid(&out.join("environment.png"), &images, 2)?;

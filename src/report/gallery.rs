@@ -13,7 +13,7 @@ use super::fireflies::film_fireflies;
 use super::grid::write_grid;
 use super::load;
 use crate::accel::BackendConfig;
-use crate::render::film::{rate_colour, Film, ToneMap};
+use crate::render::film::{Film, ToneMap};
 use crate::render::integrator::{PathSettings, Shading};
 use crate::render::{render, Adaptive, RenderSettings, Silent};
 use crate::scene::builtin::{Builtin, CORNELL, GLOSSY};
@@ -160,15 +160,10 @@ pub fn section(dir: &Path, out: &Path, budget: &Budget, threads: usize) -> Resul
             Shading::Path(path(5, 1)),
             Some(Adaptive { batch, tolerance }),
         )?;
-        let rate: Vec<u8> = film
-            .samples
-            .iter()
-            .flat_map(|&n| rate_colour(n as f32 / cap as f32))
-            .collect();
         mean_spp
             .push(film.samples.iter().map(|&n| n as f64).sum::<f64>() / film.samples.len() as f64);
         adaptive.push(image(&film, ToneMap::Reference));
-        adaptive.push(RgbImage::from_raw(width, height, rate).expect("film size"));
+        adaptive.push(film.rate_image(cap));
     }
     write_grid(&out.join("gallery_adaptive.png"), &adaptive, 4)?;
     md += &format!(

@@ -7,7 +7,7 @@
 
 use std::path::Path;
 
-use ab_glyph::{point, Font, FontRef, PxScale, ScaleFont};
+use ab_glyph::{point, Font, FontRef, GlyphId, PxScale, ScaleFont};
 use image::{Rgb, RgbImage};
 
 const BACKGROUND: Rgb<u8> = Rgb([255, 255, 255]);
@@ -25,20 +25,28 @@ fn font() -> FontRef<'static> {
         .expect("the font shipped with epaint_default_fonts parses")
 }
 
-/// Width in pixels of `text` set at `px`.
-fn text_width(font: &FontRef, px: f32, text: &str) -> f32 {
+/// The glyphs of `text` set at `px` from x = 0 with kerning: each glyph and
+/// its pen position, and the pen position after the last.
+fn layout(font: &FontRef, px: f32, text: &str) -> (Vec<(GlyphId, f32)>, f32) {
     let scaled = font.as_scaled(PxScale::from(px));
-    let mut width = 0.0;
+    let mut x = 0.0;
     let mut previous = None;
+    let mut glyphs = Vec::with_capacity(text.len());
     for c in text.chars() {
         let id = scaled.glyph_id(c);
         if let Some(p) = previous {
-            width += scaled.kern(p, id);
+            x += scaled.kern(p, id);
         }
-        width += scaled.h_advance(id);
+        glyphs.push((id, x));
+        x += scaled.h_advance(id);
         previous = Some(id);
     }
-    width
+    (glyphs, x)
+}
+
+/// Width in pixels of `text` set at `px`.
+fn text_width(font: &FontRef, px: f32, text: &str) -> f32 {
+    layout(font, px, text).1
 }
 
 /// The size at which `text` fits in `width` pixels: `px`, or smaller.
@@ -64,18 +72,11 @@ fn draw_centred(
     top: u32,
 ) {
     let px = fitting_px(font, px, text, width);
-    let scaled = font.as_scaled(PxScale::from(px));
-    let mut x = x0 as f32 + ((width as f32 - text_width(font, px, text)) / 2.0).max(0.0);
-    let baseline = top as f32 + scaled.ascent();
-    let mut previous = None;
-    for c in text.chars() {
-        let id = scaled.glyph_id(c);
-        if let Some(p) = previous {
-            x += scaled.kern(p, id);
-        }
-        let glyph = id.with_scale_and_position(PxScale::from(px), point(x, baseline));
-        x += scaled.h_advance(id);
-        previous = Some(id);
+    let (glyphs, text_w) = layout(font, px, text);
+    let left = x0 as f32 + ((width as f32 - text_w) / 2.0).max(0.0);
+    let baseline = top as f32 + font.as_scaled(PxScale::from(px)).ascent();
+    for (id, x) in glyphs {
+        let glyph = id.with_scale_and_position(PxScale::from(px), point(left + x, baseline));
         let Some(outline) = font.outline_glyph(glyph) else {
             continue;
         };

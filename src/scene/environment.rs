@@ -203,13 +203,20 @@ impl Environment {
     /// The density (solid angle) with which [`Environment::sample`] draws
     /// `dir`.
     pub fn pdf(&self, dir: Vec3) -> f32 {
-        match self.sampling {
+        self.radiance_and_pdf(dir).1
+    }
+
+    /// Radiance from `dir` and the density of drawing `dir`, from one
+    /// texel lookup.
+    #[inline]
+    pub fn radiance_and_pdf(&self, dir: Vec3) -> (Vec3, f32) {
+        let radiance = self.radiance(dir);
+        let pdf = match self.sampling {
             EnvSampling::Uniform => 0.25 / PI,
-            EnvSampling::Importance if self.power > 0.0 => {
-                luminance(self.radiance(dir)) / self.power
-            }
+            EnvSampling::Importance if self.power > 0.0 => luminance(radiance) / self.power,
             EnvSampling::Importance => 0.0,
-        }
+        };
+        (radiance, pdf)
     }
 
     /// A direction drawn with `(u, v)` in [0, 1)^2; `None` when the map
@@ -234,8 +241,7 @@ impl Environment {
         // Radiance and density are those of the texel the direction looks
         // up, so that light sampling and BSDF-sampled rays that escape see
         // the same function.
-        let radiance = self.radiance(wi);
-        let pdf = self.pdf(wi);
+        let (radiance, pdf) = self.radiance_and_pdf(wi);
         (pdf > 0.0 && radiance != Vec3::ZERO).then_some(EnvSample { wi, radiance, pdf })
     }
 }
