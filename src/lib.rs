@@ -9,6 +9,7 @@
 //! - [`report`]: the performance comparison report.
 //! - [`cli`]: the command-line front end.
 //! - [`choice`]: one spelling for every named option value.
+//! - [`text`]: text set into images (captions, legends).
 
 pub mod accel;
 pub mod choice;
@@ -17,3 +18,4 @@ pub mod parity;
 pub mod render;
 pub mod report;
 pub mod scene;
+pub mod text;

@@ -28,12 +28,12 @@ pub fn run(args: &MergeArgs) -> Result<(), String> {
     let names: Vec<String> = args.parts.iter().map(|p| p.display().to_string()).collect();
     let (film, map) = merge(&parts, &names)?;
     let image = film.file(&args.output, map).map_err(|e| e.to_string())?;
-    if film.origin.adaptive {
+    if film.origin.adaptive.is_some() {
         let rate = rate_path(&args.output);
         check_writable(&rate).map_err(|e| e.to_string())?;
         write_files(&[
             (&args.output, image),
-            (&rate, film.rate_file(film.origin.total)),
+            (&rate, film.rate_file()),
         ])
         .map_err(|e| e.to_string())?;
     } else {

@@ -87,9 +87,10 @@ pub struct RenderArgs {
     /// Resolution.
     #[arg(short = 'r', num_args = 2, value_names = ["W", "H"], default_values_t = [480u32, 360])]
     pub resolution: Vec<u32>,
-    /// Camera rays per pixel (the cap with -a).
-    #[arg(short = 's', default_value_t = 1)]
-    pub samples: u32,
+    /// Camera rays per pixel (the cap with -a) [default: 1; 256 for the
+    /// default scene].
+    #[arg(short = 's')]
+    pub samples: Option<u32>,
     /// Threads (default: all cores).
     #[arg(short = 't', default_value_t = 0)]
     pub threads: usize,
@@ -120,16 +121,18 @@ pub struct RenderArgs {
     /// Samples per area light (or hemisphere samples with -H).
     #[arg(short = 'l', default_value_t = 1)]
     pub light_samples: u32,
-    /// Maximum bounces (0: emitted light only, 1: direct lighting).
-    #[arg(short = 'm', default_value_t = 1)]
-    pub max_bounces: u32,
+    /// Maximum bounces (0: emitted light only, 1: direct lighting)
+    /// [default: 1; 8 for the default scene].
+    #[arg(short = 'm')]
+    pub max_bounces: Option<u32>,
     /// 1: accumulate bounces 0..=M; 0: only bounce M.
     #[arg(short = 'o', default_value_t = 1, value_parser = clap::value_parser!(u8).range(0..=1))]
     pub accumulate: u8,
     /// Show only direct or only indirect light.
     #[arg(long, value_parser = choice::<BounceView>(), default_value = BounceView::default().name())]
     pub only: BounceView,
-    /// Russian roulette with this continuation probability (0, 1].
+    /// Russian roulette with this continuation probability (0, 1]
+    /// [default: off; 0.8 for the default scene].
     #[arg(long = "rr", value_name = "P")]
     pub russian_roulette: Option<f32>,
     /// Adaptive sampling: batches of BATCH samples until the 95% interval
@@ -157,7 +160,76 @@ pub struct RenderArgs {
     pub scalar: bool,
 }
 
+/// What `hybrid render` with no scene renders unless told otherwise: the
+/// default scene converged in about ten seconds on two cores (-s, -m,
+/// --rr). With a scene file the course's defaults (1 sample, 1 bounce, no
+/// roulette) hold.
+pub const PRESET: Preset = Preset {
+    samples: 256,
+    max_bounces: 8,
+    russian_roulette: 0.8,
+};
+
+/// Path-tracing settings the default scene gets when they are not given.
+pub struct Preset {
+    pub samples: u32,
+    pub max_bounces: u32,
+    pub russian_roulette: f32,
+}
+
 impl RenderArgs {
+    /// Whether the [`PRESET`] fills in what was not given: no scene file
+    /// and path tracing.
+    pub fn uses_preset(&self) -> bool {
+        self.input.scene.is_none() && !self.normals
+    }
+
+    /// `-s`: given, the preset's, or the course's 1.
+    pub fn samples(&self) -> u32 {
+        match self.samples {
+            Some(n) => n,
+            None if self.uses_preset() => PRESET.samples,
+            None => 1,
+        }
+    }
+
+    /// `-m`: given, the preset's, or the course's 1.
+    pub fn max_bounces(&self) -> u32 {
+        match self.max_bounces {
+            Some(n) => n,
+            None if self.uses_preset() => PRESET.max_bounces,
+            None => 1,
+        }
+    }
+
+    /// `--rr`: given, the preset's, or none.
+    pub fn russian_roulette(&self) -> Option<f32> {
+        match self.russian_roulette {
+            Some(p) => Some(p),
+            None if self.uses_preset() => Some(PRESET.russian_roulette),
+            None => None,
+        }
+    }
+
+    /// The preset options this run takes, as they would be typed (empty
+    /// when the preset does not apply or every one was given).
+    pub fn preset_options(&self) -> String {
+        if !self.uses_preset() {
+            return String::new();
+        }
+        let mut options = Vec::new();
+        if self.samples.is_none() {
+            options.push(format!("-s {}", PRESET.samples));
+        }
+        if self.max_bounces.is_none() {
+            options.push(format!("-m {}", PRESET.max_bounces));
+        }
+        if self.russian_roulette.is_none() {
+            options.push(format!("--rr {}", PRESET.russian_roulette));
+        }
+        options.join(" ")
+    }
+
     /// Checks the options and turns them into render settings.
     pub fn settings(&self) -> Result<RenderSettings, String> {
         let (width, height) = (self.resolution[0], self.resolution[1]);
@@ -177,7 +249,8 @@ impl RenderArgs {
                 self.threads
             ));
         }
-        if self.samples == 0 {
+        let samples = self.samples();
+        if samples == 0 {
             return Err("-s 0: at least one sample per pixel is needed".into());
         }
         if self.light_samples == 0 {
@@ -191,7 +264,7 @@ impl RenderArgs {
         if self.leaf == 0 || self.leaf > 16 {
             return Err(format!("--leaf {}: leaf size must be 1..=16", self.leaf));
         }
-        if let Some(p) = self.russian_roulette {
+        if let Some(p) = self.russian_roulette() {
             if !(p > 0.0 && p <= 1.0) {
                 return Err(format!(
                     "--rr {p}: the continuation probability must be in (0, 1]"
@@ -285,11 +358,10 @@ impl RenderArgs {
             Some(text) => {
                 let range = two_numbers(text, "..");
                 match range {
-                    Some((a, b)) if a < b && b <= self.samples => {}
+                    Some((a, b)) if a < b && b <= samples => {}
                     _ => {
                         return Err(format!(
-                            "--samples {text}: expected A..B with A < B <= {} (the -s count)",
-                            self.samples
+                            "--samples {text}: expected A..B with A < B <= {samples} (the -s count)"
                         ))
                     }
                 }
@@ -319,17 +391,17 @@ impl RenderArgs {
                     self.estimator
                 },
                 light_samples: self.light_samples,
-                max_bounces: self.max_bounces,
+                max_bounces: self.max_bounces(),
                 accumulate: self.accumulate == 1,
                 view: self.only,
-                russian_roulette: self.russian_roulette,
+                russian_roulette: self.russian_roulette(),
                 background: self.background,
             })
         };
         Ok(RenderSettings {
             width,
             height,
-            samples: self.samples,
+            samples,
             threads: self.threads,
             seed: self.seed,
             camera: self.camera,
@@ -375,7 +447,7 @@ impl RenderArgs {
             if self.light_samples != 1 {
                 ignored.push("-l");
             }
-            if self.max_bounces != 1 {
+            if self.max_bounces.is_some_and(|m| m != 1) {
                 ignored.push("-m");
             }
             if self.environment.is_some() {
@@ -388,10 +460,11 @@ impl RenderArgs {
             }
         }
         if let Some(a) = &self.adaptive {
-            if a[0] > self.samples as f64 {
+            let samples = self.samples();
+            if a[0] > samples as f64 {
                 out.push(format!(
-                    "-a {} {}: the batch is larger than -s {}, so every pixel takes the -s samples and none stops early",
-                    a[0], a[1], self.samples
+                    "-a {} {}: the batch is larger than -s {samples}, so every pixel takes the -s samples and none stops early",
+                    a[0], a[1]
                 ));
             }
         }
@@ -428,12 +501,64 @@ fn two_numbers(text: &str, sep: &str) -> Option<(u32, u32)> {
     Some((a.trim().parse().ok()?, b.trim().parse().ok()?))
 }
 
-/// A progress bar on stderr, hidden when stderr is not a terminal.
-struct Bar(indicatif::ProgressBar);
+/// A progress bar on stderr counting camera samples (hidden when stderr
+/// is not a terminal). With adaptive sampling the total is not known in
+/// advance: it is re-estimated from the rows done, which the renderer
+/// takes in a scattered order.
+struct Bar {
+    bar: indicatif::ProgressBar,
+    rows: u64,
+    adaptive: bool,
+    done: std::sync::Mutex<(u64, u64)>,
+}
+
+impl Bar {
+    fn new(settings: &RenderSettings) -> Bar {
+        let (width, rows) = settings
+            .cell
+            .map_or((settings.width, settings.height), |c| (c.width, c.height));
+        let per_pixel = match settings.sample_range {
+            Some((a, b)) => b - a,
+            None => settings.samples,
+        };
+        let total = u64::from(width) * u64::from(rows) * u64::from(per_pixel);
+        let bar = indicatif::ProgressBar::with_draw_target(
+            Some(total),
+            indicatif::ProgressDrawTarget::stderr(),
+        );
+        if !std::io::stderr().is_terminal() {
+            bar.set_draw_target(indicatif::ProgressDrawTarget::hidden());
+        }
+        let adaptive = settings.adaptive.is_some();
+        let template = if adaptive {
+            "rendering [{bar:40}] {human_pos} of ~{human_len} samples (adaptive), {elapsed} elapsed, ~{eta} left"
+        } else {
+            "rendering [{bar:40}] {human_pos}/{human_len} samples, {elapsed} elapsed, ~{eta} left"
+        };
+        if let Ok(style) = indicatif::ProgressStyle::with_template(template) {
+            bar.set_style(style.progress_chars("=> "));
+        }
+        Bar {
+            bar,
+            rows: u64::from(rows),
+            adaptive,
+            done: std::sync::Mutex::new((0, 0)),
+        }
+    }
+}
 
 impl Progress for Bar {
-    fn row_done(&self) {
-        self.0.inc(1);
+    fn row_done(&self, samples: u64) {
+        self.bar.inc(samples);
+        if self.adaptive {
+            let Ok(mut done) = self.done.lock() else {
+                return;
+            };
+            done.0 += 1;
+            done.1 += samples;
+            let (rows, taken) = *done;
+            self.bar.set_length(taken * self.rows / rows);
+        }
     }
 }
 
@@ -462,6 +587,13 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
     if settings.adaptive.is_some() {
         check_writable(&rate_path(&output)).map_err(|e| e.to_string())?;
     }
+    let preset = args.preset_options();
+    if !preset.is_empty() {
+        say!(
+            "the default scene with converged settings: {preset} (the same as `hybrid render {} {preset}`; a scene file gets the course's defaults)",
+            crate::scene::builtin::CORNELL.name
+        );
+    }
     let result = render_with(args, &settings)?;
     let backend = args.backend();
     let image = result
@@ -476,9 +608,14 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
         ),
         None => format!("{}x{}", settings.width, settings.height),
     };
-    let samples = match settings.sample_range {
-        Some((a, b)) => format!("samples {a}..{b} of {} spp", settings.samples),
-        None => format!("{} spp", settings.samples),
+    let samples = match (settings.sample_range, settings.adaptive) {
+        (Some((a, b)), _) => format!("samples {a}..{b} of {} spp", settings.samples),
+        (None, Some(_)) => format!(
+            "{:.1} spp on average (adaptive, at most {})",
+            result.mean_samples(),
+            settings.samples
+        ),
+        (None, None) => format!("{} spp", settings.samples),
     };
     let mut line = format!(
         "rendered {frame} at {samples} in {:.2} s: {} rays, {:.2} Mrays/s",
@@ -498,13 +635,9 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
     // not at all.
     if settings.adaptive.is_some() {
         let rate = rate_path(&output);
-        let rate_image = result.film.rate_file(settings.samples);
+        let rate_image = result.film.rate_file();
         write_files(&[(&output, image), (&rate, rate_image)]).map_err(|e| e.to_string())?;
-        say!(
-            "adaptive sampling: {:.1} samples per pixel on average; rate image {}",
-            result.mean_samples(),
-            rate.display()
-        );
+        say!("wrote the sample-rate image {}", rate.display());
     } else {
         write_files(&[(&output, image)]).map_err(|e| e.to_string())?;
     }
@@ -579,21 +712,9 @@ pub fn render_with(args: &RenderArgs, settings: &RenderSettings) -> Result<Rende
         BackendConfig::Brute => say!("no acceleration structure (brute force over {} primitives)", stats.primitives),
     }
 
-    let rows = settings.cell.map_or(settings.height, |c| c.height);
-    let bar = indicatif::ProgressBar::with_draw_target(
-        Some(rows as u64),
-        indicatif::ProgressDrawTarget::stderr(),
-    );
-    if !std::io::stderr().is_terminal() {
-        bar.set_draw_target(indicatif::ProgressDrawTarget::hidden());
-    }
-    if let Ok(style) = indicatif::ProgressStyle::with_template(
-        "rendering [{bar:40}] {pos}/{len} rows, {elapsed} elapsed, ~{eta} left",
-    ) {
-        bar.set_style(style.progress_chars("=> "));
-    }
-    let result = render(&scene, &accel, settings, &Bar(bar.clone()));
-    bar.finish_and_clear();
+    let bar = Bar::new(settings);
+    let result = render(&scene, &accel, settings, &bar);
+    bar.bar.finish_and_clear();
 
     Ok(result)
 }

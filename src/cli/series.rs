@@ -270,7 +270,7 @@ pub fn run(args: &SeriesArgs, raw: &[String]) -> Result<(), String> {
         ));
         // Adaptive sampling: the rate image follows its render.
         if settings.adaptive.is_some() {
-            let rate = out.film.rate_image(settings.samples);
+            let rate = out.film.rate_image();
             tiles.push((rate, format!("rate · {:.0} spp mean", out.mean_samples())));
         }
         films.push((

@@ -101,21 +101,113 @@ impl Film {
         write_files(&[(path, self.file(path, map)?)])
     }
 
-    /// The sample-rate image of adaptive sampling (PNG): rate = samples /
-    /// cap, blue (0) -> green (0.5) -> red (1).
-    pub fn rate_file(&self, cap: u32) -> ImageFile<'_> {
-        ImageFile::Rate { film: self, cap }
+    /// The sample-rate image of adaptive sampling (PNG), see
+    /// [`Film::rate_image`].
+    pub fn rate_file(&self) -> ImageFile<'_> {
+        ImageFile::Rate(self)
     }
 
-    /// The sample-rate image: rate = samples / cap, coloured by
-    /// [`rate_colour`].
-    pub fn rate_image(&self, cap: u32) -> image::RgbImage {
-        let rgb = self
-            .samples
-            .iter()
-            .flat_map(|&n| rate_colour(n as f32 / cap.max(1) as f32))
+    /// The sample-rate image: each pixel coloured by the samples it took on
+    /// the absolute scale [`RateScale::of`] gives (the same colour is the
+    /// same count in any render of the same batch whose cap is at most
+    /// [`RATE_TOP`]), with a legend strip of [`LEGEND_HEIGHT`] rows under
+    /// it.
+    pub fn rate_image(&self) -> image::RgbImage {
+        let scale = RateScale::of(&self.origin);
+        let mut img = image::RgbImage::from_pixel(
+            self.width,
+            self.height + LEGEND_HEIGHT,
+            image::Rgb([255, 255, 255]),
+        );
+        for (i, &n) in self.samples.iter().enumerate() {
+            let (x, y) = (i as u32 % self.width, i as u32 / self.width);
+            img.put_pixel(x, y, image::Rgb(scale.colour(n)));
+        }
+        scale.draw_legend(&mut img, self.height);
+        img
+    }
+}
+
+/// The top of the rate image's scale: 4096 samples, or the cap rounded up
+/// to a power of two when it is larger.
+pub const RATE_TOP: u32 = 4096;
+
+/// Rows the rate image's legend strip adds under the pixels.
+pub const LEGEND_HEIGHT: u32 = 26;
+
+/// The rate image's colour scale: logarithmic in samples per pixel, from
+/// one batch (blue: the pixel stopped at its first check) to
+/// [`RATE_TOP`] (red), green half way (at -a 64, 512 samples).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct RateScale {
+    pub low: u32,
+    pub top: u32,
+}
+
+impl RateScale {
+    /// The scale of a render: its batch (1 without adaptive sampling) up
+    /// to [`RATE_TOP`] or its cap's next power of two.
+    pub fn of(origin: &Origin) -> RateScale {
+        let top = origin
+            .total
+            .max(1)
+            .checked_next_power_of_two()
+            .unwrap_or(1 << 31)
+            .max(RATE_TOP);
+        let low = origin.adaptive.unwrap_or(1).clamp(1, top / 2);
+        RateScale { low, top }
+    }
+
+    /// Where `n` samples lie on the scale, 0 (at or below one batch) to 1.
+    pub fn position(&self, n: u32) -> f32 {
+        let (low, top) = ((self.low as f32).log2(), (self.top as f32).log2());
+        (((n.max(1) as f32).log2() - low) / (top - low)).clamp(0.0, 1.0)
+    }
+
+    pub fn colour(&self, n: u32) -> [u8; 3] {
+        rate_colour(self.position(n))
+    }
+
+    /// The legend under a rate image whose pixels end at row `y0`: the
+    /// scale as a colour bar, and sample counts (the batch times powers of
+    /// 4, and the top) under it where they fit.
+    fn draw_legend(&self, img: &mut image::RgbImage, y0: u32) {
+        const MARGIN: u32 = 4;
+        const LABEL_PX: f32 = 11.0;
+        let width = img.width();
+        let span = width.saturating_sub(2 * MARGIN).max(2);
+        for x in MARGIN..(MARGIN + span).min(width) {
+            let colour = rate_colour((x - MARGIN) as f32 / (span - 1) as f32);
+            for y in y0 + 3..y0 + 11 {
+                img.put_pixel(x, y, image::Rgb(colour));
+            }
+        }
+        let font = crate::text::font();
+        let mut values: Vec<u32> = std::iter::successors(Some(self.low), |v| v.checked_mul(4))
+            .take_while(|&v| v < self.top)
             .collect();
-        image::RgbImage::from_raw(self.width, self.height, rgb).expect("film size")
+        values.push(self.top);
+        // The ends first, so they win where labels would collide.
+        let mut order: Vec<usize> = vec![values.len() - 1, 0];
+        order.extend(1..values.len() - 1);
+        let mut taken: Vec<(f32, f32)> = Vec::new();
+        for k in order {
+            let v = values[k];
+            let text = if k + 1 == values.len() {
+                format!("{v} spp")
+            } else {
+                v.to_string()
+            };
+            let w = crate::text::text_width(&font, LABEL_PX, &text);
+            let centre = MARGIN as f32 + self.position(v) * (span - 1) as f32;
+            let left = (centre - w / 2.0).clamp(0.0, (width as f32 - w).max(0.0));
+            let right = left + w;
+            if right > width as f32 || taken.iter().any(|&(l, r)| left < r + 4.0 && l < right + 4.0) {
+                continue;
+            }
+            taken.push((left, right));
+            crate::text::draw_centred(img, &font, LABEL_PX, &text, left as u32, w.ceil() as u32 + 1, y0 + 12);
+        }
     }
 }
 
@@ -127,8 +219,8 @@ pub enum ImageFile<'a> {
         map: ToneMap,
         format: image::ImageFormat,
     },
-    /// The adaptive sampling rate.
-    Rate { film: &'a Film, cap: u32 },
+    /// The adaptive sampling rate, with its legend.
+    Rate(&'a Film),
     /// An image composed from films (a contact sheet), as PNG.
     Picture(&'a image::RgbImage),
 }
@@ -142,12 +234,19 @@ impl ImageFile<'_> {
                 map,
                 format: image::ImageFormat::OpenExr,
             } => part::write_exr(out, film, map),
-            ImageFile::Radiance { film, map, .. } => {
-                png(out, film, &film.to_rgb8(map)).map_err(|e| e.to_string())
-            }
-            ImageFile::Rate { film, cap } => {
-                png(out, film, film.rate_image(cap).as_raw()).map_err(|e| e.to_string())
-            }
+            ImageFile::Radiance { film, map, .. } => image::write_buffer_with_format(
+                out,
+                &film.to_rgb8(map),
+                film.width,
+                film.height,
+                image::ColorType::Rgb8,
+                image::ImageFormat::Png,
+            )
+            .map_err(|e| e.to_string()),
+            ImageFile::Rate(film) => film
+                .rate_image()
+                .write_to(out, image::ImageFormat::Png)
+                .map_err(|e| e.to_string()),
             ImageFile::Picture(img) => img
                 .write_to(out, image::ImageFormat::Png)
                 .map_err(|e| e.to_string()),
@@ -155,18 +254,7 @@ impl ImageFile<'_> {
     }
 }
 
-fn png<W: Write + Seek>(out: &mut W, film: &Film, rgb: &[u8]) -> image::ImageResult<()> {
-    image::write_buffer_with_format(
-        out,
-        rgb,
-        film.width,
-        film.height,
-        image::ColorType::Rgb8,
-        image::ImageFormat::Png,
-    )
-}
-
-/// Blue -> green -> red by rate in [0, 1].
+/// Blue -> green -> red by position in [0, 1].
 pub fn rate_colour(rate: f32) -> [u8; 3] {
     let r = rate.clamp(0.0, 1.0);
     let (red, green, blue) = if r < 0.5 {

@@ -128,16 +128,29 @@ impl RenderOutput {
     }
 }
 
-/// Progress reporting, called once per finished row (never per ray).
+/// Progress reporting, called once per finished row (never per ray) with
+/// the camera samples the row took. Rows are rendered in a scattered
+/// order, so the rows done so far are a fair sample of the frame's cost and
+/// an estimate from them is not fooled by a band of empty background.
 pub trait Progress: Sync {
-    fn row_done(&self);
+    fn row_done(&self, samples: u64);
 }
 
 /// No progress output.
 pub struct Silent;
 
 impl Progress for Silent {
-    fn row_done(&self) {}
+    fn row_done(&self, _samples: u64) {}
+}
+
+/// The order rows are rendered in: sorted by a hash of the row index, a
+/// fixed scattering (the image does not depend on it, only the progress
+/// estimate does).
+fn scattered(row: u32) -> u64 {
+    let mut z = u64::from(row).wrapping_add(0x9e37_79b9_7f4a_7c15);
+    z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+    z ^ (z >> 31)
 }
 
 /// Renders `scene` through `accel`.
@@ -184,15 +197,19 @@ fn render_rows<A: Accel>(
         samples: settings.sample_range.unwrap_or((0, cap)),
         total: cap,
         seed: settings.seed,
-        adaptive: settings.adaptive.is_some(),
+        adaptive: settings.adaptive.map(|a| a.batch.max(1)),
     };
     let width = cell.width as usize;
-    let totals: TraceCounters = film
+    let mut rows: Vec<_> = film
         .pixels
-        .par_chunks_mut(width)
-        .zip(film.samples.par_chunks_mut(width))
-        .zip(film.sums.par_chunks_mut(width))
+        .chunks_mut(width)
+        .zip(film.samples.chunks_mut(width))
+        .zip(film.sums.chunks_mut(width))
         .enumerate()
+        .collect();
+    rows.sort_unstable_by_key(|(row_index, _)| scattered(*row_index as u32));
+    let totals: TraceCounters = rows
+        .into_par_iter()
         .map(|(row_index, ((row, counts), sums))| {
             let y = cell.y + row_index as u32;
             let mut counters = TraceCounters::default();
@@ -207,7 +224,7 @@ fn render_rows<A: Accel>(
                 sums[i] = sum;
                 counts[i] = n;
             }
-            progress.row_done();
+            progress.row_done(counts.iter().map(|&n| u64::from(n)).sum());
             counters
         })
         .reduce(TraceCounters::default, |mut a, b| {

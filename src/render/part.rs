@@ -35,7 +35,8 @@ pub struct Origin {
     /// Samples per pixel of the whole render (`-s`; the cap with `-a`).
     pub total: u32,
     pub seed: u64,
-    pub adaptive: bool,
+    /// Adaptive sampling's batch (`-a BATCH TOL`), if adaptive.
+    pub adaptive: Option<u32>,
 }
 
 impl Origin {
@@ -52,7 +53,7 @@ impl Origin {
             samples: (0, 0),
             total: 0,
             seed: 0,
-            adaptive: false,
+            adaptive: None,
         }
     }
 
@@ -70,7 +71,7 @@ impl Origin {
             self.samples.1,
             self.total,
             self.seed,
-            u8::from(self.adaptive),
+            self.adaptive.unwrap_or(0),
             match map {
                 ToneMap::Reference => "reference",
                 ToneMap::Identity => "identity",
@@ -111,7 +112,8 @@ impl Origin {
             samples: (u(samples[0])?, u(samples[1])?),
             total: u(samples[2])?,
             seed: nums("seed", 1)?[0],
-            adaptive: nums("adaptive", 1)?[0] == 1,
+            // 0: not adaptive; else the batch.
+            adaptive: u(nums("adaptive", 1)?[0]).filter(|&b| b > 0),
         };
         let map = match get("tone")?.as_slice() {
             ["reference"] => ToneMap::Reference,

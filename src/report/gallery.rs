@@ -163,7 +163,7 @@ pub fn section(dir: &Path, out: &Path, budget: &Budget, threads: usize) -> Resul
         mean_spp
             .push(film.samples.iter().map(|&n| n as f64).sum::<f64>() / film.samples.len() as f64);
         adaptive.push(image(&film, ToneMap::Reference));
-        adaptive.push(film.rate_image(cap));
+        adaptive.push(film.rate_image());
     }
     write_grid(&out.join("gallery_adaptive.png"), &adaptive, 4)?;
     md += &format!(

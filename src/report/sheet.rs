@@ -1,127 +1,33 @@
-//! Labelled contact sheets: a title line over a grid of equally sized
-//! images, each with a caption under it, for `hybrid series` and the
-//! report's gallery. Text is rasterised from an outline font with
-//! `ab_glyph`; the font is Hack (MIT and Bitstream Vera licences), which
-//! the `epaint_default_fonts` crate carries, so no font file lives in this
-//! repository and none is looked up on the machine.
+//! Labelled contact sheets: a title line over a grid of images, each with
+//! a caption under it, for `hybrid series` and the report's gallery (text
+//! set by [`crate::text`]).
 
 use std::path::Path;
 
-use ab_glyph::{point, Font, FontRef, GlyphId, PxScale, ScaleFont};
 use image::{Rgb, RgbImage};
 
+use crate::text::{draw_centred, font, line_height};
+
 const BACKGROUND: Rgb<u8> = Rgb([255, 255, 255]);
-const INK: Rgb<u8> = Rgb([25, 25, 25]);
 const GAP: u32 = 8;
 
 /// Pixel height of captions and of the title.
 const CAPTION_PX: f32 = 15.0;
 const TITLE_PX: f32 = 18.0;
-/// Smallest size text shrinks to when it is wider than its space.
-const SMALLEST_PX: f32 = 8.0;
 
-fn font() -> FontRef<'static> {
-    FontRef::try_from_slice(epaint_default_fonts::HACK_REGULAR)
-        .expect("the font shipped with epaint_default_fonts parses")
-}
-
-/// The glyphs of `text` set at `px` from x = 0 with kerning: each glyph and
-/// its pen position, and the pen position after the last.
-fn layout(font: &FontRef, px: f32, text: &str) -> (Vec<(GlyphId, f32)>, f32) {
-    let scaled = font.as_scaled(PxScale::from(px));
-    let mut x = 0.0;
-    let mut previous = None;
-    let mut glyphs = Vec::with_capacity(text.len());
-    for c in text.chars() {
-        let id = scaled.glyph_id(c);
-        if let Some(p) = previous {
-            x += scaled.kern(p, id);
-        }
-        glyphs.push((id, x));
-        x += scaled.h_advance(id);
-        previous = Some(id);
-    }
-    (glyphs, x)
-}
-
-/// Width in pixels of `text` set at `px`.
-fn text_width(font: &FontRef, px: f32, text: &str) -> f32 {
-    layout(font, px, text).1
-}
-
-/// The size at which `text` fits in `width` pixels: `px`, or smaller.
-fn fitting_px(font: &FontRef, px: f32, text: &str, width: u32) -> f32 {
-    let w = text_width(font, px, text);
-    if w <= width as f32 {
-        px
-    } else {
-        (px * width as f32 / w).max(SMALLEST_PX)
-    }
-}
-
-/// Draws `text` at `px` centred in the band `x0..x0 + width` with its top at
-/// `top`, blending ink by each pixel's coverage; what falls outside the
-/// image is clipped.
-fn draw_centred(
-    img: &mut RgbImage,
-    font: &FontRef,
-    px: f32,
-    text: &str,
-    x0: u32,
-    width: u32,
-    top: u32,
-) {
-    let px = fitting_px(font, px, text, width);
-    let (glyphs, text_w) = layout(font, px, text);
-    let left = x0 as f32 + ((width as f32 - text_w) / 2.0).max(0.0);
-    let baseline = top as f32 + font.as_scaled(PxScale::from(px)).ascent();
-    for (id, x) in glyphs {
-        let glyph = id.with_scale_and_position(PxScale::from(px), point(left + x, baseline));
-        let Some(outline) = font.outline_glyph(glyph) else {
-            continue;
-        };
-        let bounds = outline.px_bounds();
-        outline.draw(|gx, gy, coverage| {
-            let (px_x, px_y) = (
-                bounds.min.x as i64 + gx as i64,
-                bounds.min.y as i64 + gy as i64,
-            );
-            if px_x < 0 || px_y < 0 || px_x >= img.width() as i64 || px_y >= img.height() as i64 {
-                return;
-            }
-            let p = img.get_pixel_mut(px_x as u32, px_y as u32);
-            let a = coverage.clamp(0.0, 1.0);
-            for ch in 0..3 {
-                p.0[ch] = (p.0[ch] as f32 * (1.0 - a) + INK.0[ch] as f32 * a).round() as u8;
-            }
-        });
-    }
-}
-
-/// Line height of text set at `px`.
-fn line_height(font: &FontRef, px: f32) -> u32 {
-    let scaled = font.as_scaled(PxScale::from(px));
-    (scaled.ascent() - scaled.descent()).ceil() as u32 + 4
-}
-
-/// A contact sheet: `tiles` (equally sized) in rows of `columns`, each with
-/// its caption under it, and a title line over them (none when empty).
+/// A contact sheet: `tiles` in rows of `columns`, each with its caption
+/// under it, and a title line over them (none when empty). Every tile gets
+/// a cell as large as the largest; smaller ones sit at its top left.
 pub fn sheet(
     title: &str,
     tiles: &[(RgbImage, String)],
     columns: usize,
 ) -> Result<RgbImage, String> {
-    let Some((first, _)) = tiles.first() else {
+    if tiles.is_empty() {
         return Err("a contact sheet needs at least one image".into());
-    };
-    let (w, h) = first.dimensions();
-    if let Some((odd, _)) = tiles.iter().find(|(t, _)| t.dimensions() != (w, h)) {
-        return Err(format!(
-            "contact sheet tiles differ in size: {w}x{h} and {}x{}",
-            odd.width(),
-            odd.height()
-        ));
     }
+    let w = tiles.iter().map(|(t, _)| t.width()).max().unwrap_or(1);
+    let h = tiles.iter().map(|(t, _)| t.height()).max().unwrap_or(1);
     let font = font();
     let cols = columns.max(1).min(tiles.len()) as u32;
     let rows = tiles.len().div_ceil(cols as usize) as u32;
@@ -193,14 +99,5 @@ mod tests {
         assert!(long > short, "a longer caption did not cover more pixels");
         // Nothing is drawn over the (white) tiles themselves.
         assert_eq!(ink_in(&img, GAP, GAP + title_band, GAP + 120, y), 0);
-    }
-
-    #[test]
-    fn text_wider_than_its_tile_shrinks_to_fit() {
-        let font = font();
-        let text = "a caption far too long for a tile of forty pixels";
-        let px = fitting_px(&font, CAPTION_PX, text, 200);
-        assert!(px < CAPTION_PX);
-        assert!(text_width(&font, px, text) <= 200.5 || px == SMALLEST_PX);
     }
 }

@@ -72,6 +72,57 @@ fn no_argument_renders_the_default_scene() {
     );
 }
 
+/// Without a scene, the options not given take the converged preset and
+/// the equivalent command is printed; with a scene file (the same scene)
+/// the course's defaults hold. The preset's images of two seeds agree far
+/// better than those of the same settings at 2 spp do.
+#[test]
+fn the_default_scene_renders_converged_and_says_how() {
+    let dir = common::scratch("cli-preset");
+    let file = concat!(env!("CARGO_MANIFEST_DIR"), "/dae/cornell.dae");
+    let run = |args: &[&str], out: &str| {
+        let mut all = vec!["render", "-r", "32", "24", "-f", out];
+        all.extend_from_slice(args);
+        let o = hybrid(&all, &dir);
+        assert!(o.status.success(), "{}", text(&o));
+        let img = image::open(dir.join(out)).expect("written").to_rgb8();
+        (String::from_utf8_lossy(&o.stdout).to_string(), img.into_raw())
+    };
+    let rms = |a: &[u8], b: &[u8]| {
+        (a.iter()
+            .zip(b)
+            .map(|(&x, &y)| (x as f64 - y as f64).powi(2))
+            .sum::<f64>()
+            / a.len() as f64)
+            .sqrt()
+    };
+    let (said, preset0) = run(&[], "p0.png");
+    assert!(
+        said.contains("-s 256 -m 8 --rr 0.8") && said.contains("hybrid render dae/cornell.dae"),
+        "the preset and its command are not printed: {said}"
+    );
+    assert!(said.contains("at 256 spp"), "{said}");
+    let (_, preset1) = run(&["--seed", "1"], "p1.png");
+    // A given option is kept; the rest of the preset still applies.
+    let (said, few0) = run(&["-s", "2"], "f0.png");
+    assert!(said.contains("-m 8 --rr 0.8") && !said.contains("-s 256"), "{said}");
+    assert!(said.contains("at 2 spp"), "{said}");
+    let (_, few1) = run(&["-s", "2", "--seed", "1"], "f1.png");
+
+    let (said, course0) = run(&[file], "c0.png");
+    assert!(!said.contains("converged"), "a scene file took the preset: {said}");
+    assert!(said.contains("at 1 spp"), "{said}");
+    let (preset, few) = (rms(&preset0, &preset1), rms(&few0, &few1));
+    println!("8-bit RMS between seeds: preset {preset:.2}, the preset at 2 spp {few:.2}");
+    assert!(
+        preset * 3.0 < few,
+        "the preset is not converged: seeds differ by {preset:.2} against {few:.2} at 2 spp"
+    );
+    // Indirect light: the preset's image is brighter than direct light alone.
+    let mean = |v: &[u8]| v.iter().map(|&c| c as f64).sum::<f64>() / v.len() as f64;
+    assert!(mean(&preset0) > mean(&course0) + 5.0);
+}
+
 #[test]
 fn bad_input_exits_2_with_one_line_and_no_image() {
     let dir = common::scratch("cli-bad");

@@ -6,7 +6,7 @@ use glam::Vec3;
 use hybrid::accel::native::{NativeBvh, NativeOptions};
 use hybrid::accel::BackendConfig;
 use hybrid::render::camera::CameraMode;
-use hybrid::render::film::{rate_colour, Film};
+use hybrid::render::film::{Film, RateScale, LEGEND_HEIGHT};
 use hybrid::render::integrator::{DirectEstimator, PathSettings, Shading};
 use hybrid::render::{render, Adaptive, RenderOutput, RenderSettings, Silent};
 use hybrid::scene::generate::white_furnace;
@@ -388,19 +388,44 @@ fn adaptive_sampling_stops_early_on_flat_background() {
     );
 
     let mut png = std::io::Cursor::new(Vec::new());
-    film.rate_file(cap).write_to(&mut png).unwrap();
+    film.rate_file().write_to(&mut png).unwrap();
     let img = image::load_from_memory(png.get_ref()).unwrap().to_rgb8();
-    assert_eq!(img.dimensions(), (w, h));
+    assert_eq!(img.dimensions(), (w, h + LEGEND_HEIGHT), "the legend strip");
+    let scale = RateScale::of(&film.origin);
     assert_eq!(
         img.get_pixel(0, 0).0,
-        rate_colour(batch as f32 / cap as f32),
+        scale.colour(batch),
         "background rate colour"
     );
     let most = inside.last().copied().unwrap();
     assert!(
-        rate_colour(most as f32 / cap as f32)[0] > rate_colour(batch as f32 / cap as f32)[0],
-        "busier pixels are redder"
+        scale.colour(most)[2] < scale.colour(batch)[2],
+        "busier pixels are less blue (towards green, then red)"
     );
+
+    // The scale is absolute: a render with 8x the cap colours the pixels
+    // that took one batch (the background) exactly as this one does, where
+    // a scale of samples / cap would make them bluer.
+    let wide = render(
+        &scene,
+        &accel,
+        &RenderSettings {
+            samples: 8 * cap,
+            ..settings.clone()
+        },
+        &Silent,
+    );
+    let wide_img = wide.film.rate_image();
+    assert_eq!(wide.film.samples[0], batch);
+    assert_eq!(wide_img.get_pixel(0, 0), img.get_pixel(0, 0));
+    // The same count in both is the same colour.
+    let n = film.samples[(h / 2 * w + w / 2) as usize];
+    assert_eq!(scale.colour(n), RateScale::of(&wide.film.origin).colour(n));
+    // The legend: the colour bar from blue (one batch) to red, and labels.
+    let bar = h + 6;
+    let (left, right) = (img.get_pixel(4, bar).0, img.get_pixel(w - 5, bar).0);
+    assert!(left[2] > 200 && left[0] < 50, "bar starts blue: {left:?}");
+    assert!(right[0] > 200 && right[2] < 50, "bar ends red: {right:?}");
 }
 
 #[test]
