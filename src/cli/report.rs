@@ -20,6 +20,10 @@ pub struct ReportArgs {
     /// Threads for the all-threads figures (default: all cores).
     #[arg(short = 't', default_value_t = 0)]
     pub threads: usize,
+    /// Size of each gallery image (default: 80 60 with --quick, else 480
+    /// 360).
+    #[arg(long, num_args = 2, value_names = ["W", "H"])]
+    pub tile: Option<Vec<u32>>,
 }
 
 pub fn run(args: &ReportArgs) -> Result<(), String> {
@@ -30,7 +34,18 @@ pub fn run(args: &ReportArgs) -> Result<(), String> {
             scenes_dir.display()
         ));
     }
+    let tile = match args.tile.as_deref() {
+        Some(&[w, h]) if (8..=4096).contains(&w) && (8..=4096).contains(&h) => Some((w, h)),
+        Some(t) => {
+            return Err(format!(
+                "--tile {}: each side must be 8..=4096 pixels",
+                t.iter().map(|v| v.to_string()).collect::<Vec<_>>().join(" ")
+            ))
+        }
+        None => None,
+    };
     let options = ReportOptions {
+        tile,
         scenes_dir,
         out_dir: args.out.clone(),
         quick: args.quick,

@@ -72,7 +72,7 @@ pub fn table(rows: &[BruteRow]) -> Table {
         row.extend(
             r.mrays[1..]
                 .iter()
-                .map(|m| Cell::Ratio(m.median / r.mrays[0].median)),
+                .map(|m| Cell::ratio_of(m.median / r.mrays[0].median, &[*m, r.mrays[0]])),
         );
         table.row(row);
     }

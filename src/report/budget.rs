@@ -27,6 +27,9 @@ pub struct Budget {
     pub adaptive_gallery: (u32, f32, u32),
     /// Estimator gallery: spp on the glossy scene, spp on the default one.
     pub estimator_gallery: (u32, u32),
+    /// Adaptive against uniform: resolution, reference spp, batch,
+    /// tolerance, cap.
+    pub adaptive_study: ((u32, u32), u32, u32, f32, u32),
     /// Environment light study: resolution, sample counts, reference spp.
     pub environment_resolution: (u32, u32),
     pub environment_spp: Vec<u32>,
@@ -51,6 +54,7 @@ impl Budget {
                 spp_series: vec![1, 4, 16, 64],
                 adaptive_gallery: (16, 0.1, 256),
                 estimator_gallery: (64, 16),
+                adaptive_study: ((64, 48), 1024, 16, 0.1, 512),
                 environment_resolution: (64, 48),
                 environment_spp: vec![4, 16, 64],
                 environment_reference_spp: 256,
@@ -71,6 +75,7 @@ impl Budget {
                 spp_series: vec![1, 2, 4, 8, 16, 64, 256, 1024],
                 adaptive_gallery: (64, 0.05, 2048),
                 estimator_gallery: (1024, 128),
+                adaptive_study: ((160, 120), 8192, 32, 0.05, 2048),
                 environment_resolution: (160, 120),
                 environment_spp: vec![1, 4, 16, 64, 256],
                 environment_reference_spp: 4096,

@@ -10,7 +10,7 @@ use std::sync::Arc;
 use super::budget::Budget;
 use super::error::rmse;
 use super::gallery::image;
-use super::grid::write_grid;
+use super::sheet::write_sheet;
 use super::table::{Cell, Table};
 use crate::accel::BackendConfig;
 use crate::render::film::{Film, ToneMap};
@@ -75,8 +75,16 @@ pub fn measure(budget: &Budget, threads: usize, out: &Path) -> Result<Environmen
         let u = frame(&uniform, spp, 1);
         let i = frame(&importance, spp, 1);
         if spp == shown {
-            let images = [image(&u, ToneMap::Reference), image(&i, ToneMap::Reference)];
-            write_grid(&out.join("environment.png"), &images, 2)?;
+            let tiles = [
+                (image(&u, ToneMap::Reference), "uniform".to_string()),
+                (image(&i, ToneMap::Reference), "by luminance".to_string()),
+            ];
+            write_sheet(
+                &out.join("environment.png"),
+                &format!("-s {spp} -m 1 · environment map sampled"),
+                &tiles,
+                2,
+            )?;
         }
         rows.push(EnvironmentRow {
             spp,

@@ -281,7 +281,7 @@ pub fn equal_time_table(study: &ErrorStudy) -> Table {
     let mut table = Table::new([
         ("series", "series"),
         ("rmse", "RMSE at equal time"),
-        ("over_light", "over light sampling"),
+        ("over_light", "RMSE / light sampling's (< 1: less error)"),
     ]);
     let Some(t) = study.equal_time() else {
         return table;

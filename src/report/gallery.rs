@@ -10,7 +10,7 @@ use image::RgbImage;
 use super::budget::{Budget, NORMALS_SCENES, SAMPLES_SCENE, SERIES_SCENE};
 use super::error::ESTIMATORS;
 use super::fireflies::film_fireflies;
-use super::grid::write_grid;
+use super::sheet::write_sheet;
 use super::load;
 use crate::accel::BackendConfig;
 use crate::render::film::{Film, ToneMap};
@@ -50,6 +50,11 @@ impl Shooter {
     }
 }
 
+/// A shared scene's file name without the folder and `.dae`.
+fn scene_name(rel: &str) -> String {
+    rel.rsplit('/').next().unwrap_or(rel).trim_end_matches(".dae").to_string()
+}
+
 pub(crate) fn image(film: &Film, map: ToneMap) -> RgbImage {
     RgbImage::from_raw(film.width, film.height, film.to_rgb8(map)).expect("film size")
 }
@@ -83,61 +88,81 @@ pub fn section(dir: &Path, out: &Path, budget: &Budget, threads: usize) -> Resul
         .iter()
         .map(|rel| {
             let s = load(dir, rel)?;
-            Ok(image(
-                &shooter.film(&s, 4, Shading::Normals, None)?,
-                ToneMap::Identity,
-            ))
+            let img = image(&shooter.film(&s, 4, Shading::Normals, None)?, ToneMap::Identity);
+            Ok((img, scene_name(rel)))
         })
         .collect::<Result<Vec<_>, String>>()?;
-    write_grid(&out.join("gallery_normals.png"), &normals, 4)?;
+    write_sheet(&out.join("gallery_normals.png"), "--normals", &normals, 4)?;
     md += "Normal shading: CBspheres_lambertian, CBbunny, maxplanck, banana.\n\n![normals](gallery_normals.png)\n\n";
 
     let lights = [1, 4, 16, 64]
         .iter()
-        .map(|&l| shoot(&series, 1, path(1, l)))
-        .collect::<Result<Vec<_>, _>>()?;
-    write_grid(&out.join("gallery_light_samples.png"), &lights, 4)?;
+        .map(|&l| Ok((shoot(&series, 1, path(1, l))?, format!("-l {l}"))))
+        .collect::<Result<Vec<_>, String>>()?;
+    write_sheet(
+        &out.join("gallery_light_samples.png"),
+        "CBbunny · -s 1 -m 1",
+        &lights,
+        4,
+    )?;
     md += "CBbunny, direct lighting at `-s 1` with `-l 1, 4, 16, 64`: the soft shadows' noise falls.\n\n![light samples](gallery_light_samples.png)\n\n";
 
     let spp = budget.gallery_spp;
     let mut bounces = Vec::new();
     for accumulate in [false, true] {
         for m in 0..=5 {
-            bounces.push(shoot(
+            let img = shoot(
                 &series,
                 spp,
                 PathSettings {
                     accumulate,
                     ..path(m, 1)
                 },
-            )?);
+            )?;
+            bounces.push((img, format!("-m {m} -o {}", u8::from(accumulate))));
         }
     }
-    write_grid(&out.join("gallery_bounces.png"), &bounces, 6)?;
+    write_sheet(
+        &out.join("gallery_bounces.png"),
+        &format!("CBbunny · -s {spp}"),
+        &bounces,
+        6,
+    )?;
     md += &format!("CBbunny at {spp} spp, `-m 0..5`: top row only the m-th bounce (`-o 0`), bottom row accumulated (`-o 1`).\n\n![bounces](gallery_bounces.png)\n\n");
 
     let rr = [0, 1, 2, 3, 4, 100]
         .iter()
         .map(|&m| {
-            shoot(
+            let img = shoot(
                 &series,
                 spp,
                 PathSettings {
                     russian_roulette: Some(0.7),
                     ..path(m, 1)
                 },
-            )
+            )?;
+            Ok((img, format!("-m {m}")))
         })
-        .collect::<Result<Vec<_>, _>>()?;
-    write_grid(&out.join("gallery_russian_roulette.png"), &rr, 6)?;
+        .collect::<Result<Vec<_>, String>>()?;
+    write_sheet(
+        &out.join("gallery_russian_roulette.png"),
+        &format!("CBbunny · -s {spp} --rr 0.7"),
+        &rr,
+        6,
+    )?;
     md += "CBbunny with Russian roulette (continuation 0.7), `-m 0, 1, 2, 3, 4, 100`.\n\n![russian roulette](gallery_russian_roulette.png)\n\n";
 
     let by_spp = budget
         .spp_series
         .iter()
-        .map(|&s| shoot(&samples_scene, s, path(3, 1)))
-        .collect::<Result<Vec<_>, _>>()?;
-    write_grid(&out.join("gallery_samples.png"), &by_spp, 4)?;
+        .map(|&s| Ok((shoot(&samples_scene, s, path(3, 1))?, format!("-s {s}"))))
+        .collect::<Result<Vec<_>, String>>()?;
+    write_sheet(
+        &out.join("gallery_samples.png"),
+        "CBspheres_lambertian · -m 3",
+        &by_spp,
+        4,
+    )?;
     md += &format!(
         "CBspheres_lambertian, 3 bounces, `-s {}`.\n\n![samples per pixel](gallery_samples.png)\n\n",
         budget
@@ -153,21 +178,26 @@ pub fn section(dir: &Path, out: &Path, budget: &Budget, threads: usize) -> Resul
     let (batch, tolerance, cap) = budget.adaptive_gallery;
     let mut adaptive = Vec::new();
     let mut mean_spp = Vec::new();
-    for scene in [&series, &samples_scene] {
+    for (scene, name) in [(&series, SERIES_SCENE), (&samples_scene, SAMPLES_SCENE)] {
         let film = shooter.film(
             scene,
             cap,
             Shading::Path(path(5, 1)),
             Some(Adaptive { batch, tolerance }),
         )?;
-        mean_spp
-            .push(film.samples.iter().map(|&n| n as f64).sum::<f64>() / film.samples.len() as f64);
-        adaptive.push(image(&film, ToneMap::Reference));
-        adaptive.push(film.rate_image());
+        let mean = film.samples.iter().map(|&n| n as f64).sum::<f64>() / film.samples.len() as f64;
+        mean_spp.push(mean);
+        adaptive.push((image(&film, ToneMap::Reference), scene_name(name)));
+        adaptive.push((film.rate_image(), format!("rate · {mean:.0} spp mean")));
     }
-    write_grid(&out.join("gallery_adaptive.png"), &adaptive, 4)?;
+    write_sheet(
+        &out.join("gallery_adaptive.png"),
+        &format!("-a {batch} {tolerance} -s {cap} -m 5"),
+        &adaptive,
+        4,
+    )?;
     md += &format!(
-        "Adaptive sampling `-a {batch} {tolerance} -s {cap}`, 5 bounces: CBbunny and its sample rate (mean {:.0} spp), CBspheres_lambertian and its rate (mean {:.0} spp); blue = few samples, red = the cap.\n\n![adaptive](gallery_adaptive.png)\n",
+        "Adaptive sampling `-a {batch} {tolerance} -s {cap}`, 5 bounces: CBbunny and its sample rate (mean {:.0} spp), CBspheres_lambertian and its rate (mean {:.0} spp); the rate image's scale is absolute and logarithmic, blue = one batch, red = 4096 samples (its legend gives the counts).\n\n![adaptive](gallery_adaptive.png)\n",
         mean_spp[0], mean_spp[1]
     );
     Ok(md)
@@ -184,8 +214,8 @@ fn estimators(shooter: &Shooter, out: &Path, budget: &Budget) -> Result<String, 
         (CORNELL, cornell_spp, 5, &ESTIMATORS[1..]),
     ] {
         let scene = load_builtin(builtin)?;
-        let mut images = Vec::new();
         let mut captions = Vec::new();
+        let mut tiles = Vec::new();
         for (label, estimator) in shown {
             let film = shooter.film(
                 &scene,
@@ -196,12 +226,12 @@ fn estimators(shooter: &Shooter, out: &Path, budget: &Budget) -> Result<String, 
                 }),
                 None,
             )?;
-            captions.push(format!(
-                "{label} ({} fireflies, {} speckles)",
-                film_fireflies(&film, 10.0),
-                film_fireflies(&film, 2.0)
+            let (fireflies, speckles) = (film_fireflies(&film, 10.0), film_fireflies(&film, 2.0));
+            captions.push(format!("{label} ({fireflies} fireflies, {speckles} speckles)"));
+            tiles.push((
+                image(&film, ToneMap::Reference),
+                format!("{label} · {fireflies} / {speckles}"),
             ));
-            images.push(image(&film, ToneMap::Reference));
         }
         let file = format!(
             "gallery_estimators_{}.png",
@@ -210,7 +240,12 @@ fn estimators(shooter: &Shooter, out: &Path, budget: &Budget) -> Result<String, 
                 .trim_start_matches("dae/")
                 .trim_end_matches(".dae")
         );
-        write_grid(&out.join(&file), &images, images.len())?;
+        write_sheet(
+            &out.join(&file),
+            &format!("{} · -s {spp} -m {bounces} · fireflies / speckles", builtin.name),
+            &tiles,
+            tiles.len(),
+        )?;
         md += &format!(
             "`{}` at {spp} spp, {bounces} bounces, one light sample, left to right: {}. A firefly is a pixel brighter than 10x the median of its 5x5 neighbourhood, a speckle one brighter than 2x; the fireflies left under MIS are edges of the light and of the box against the black outside, and the mirror sphere's small reflections of them; the speckles light sampling adds are walls lit through glossy surfaces, paths MIS finds by BSDF sampling.\n\n![estimators]({file})\n\n",
             builtin.name,

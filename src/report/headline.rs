@@ -3,8 +3,8 @@
 //! rendered frame, on one thread and on all threads. Read from the
 //! per-scene rows.
 
-use super::scenes::SceneResult;
-use super::table::{Cell, Table};
+use super::scenes::{BuildRow, SceneResult};
+use super::table::{Cell, Flag, Measured, Table};
 use crate::accel::config::COMPARED;
 
 /// One row per measure, one column per scene.
@@ -31,12 +31,13 @@ pub fn table(results: &[SceneResult]) -> Table {
     // faster, as for every other row.
     let build = |r: &SceneResult, all: bool| match (r.build(&COMPARED[0]), r.build(&COMPARED[1])) {
         (Some(n), Some(e)) => {
-            let (n, e) = if all {
-                (n.all_threads.median, e.all_threads.median)
-            } else {
-                (n.one_thread.median, e.one_thread.median)
+            let pick = |b: &BuildRow| {
+                Measured::seconds(if all { &b.all_threads } else { &b.one_thread })
             };
-            Cell::Ratio(e / n)
+            let (tn, te) = (pick(n), pick(e));
+            let slower = |b: &BuildRow| b.all_threads.median > b.one_thread.median;
+            Cell::ratio_of(te.median / tn.median, &[tn, te])
+                .flagged((all && (slower(n) || slower(e))).then_some(Flag::BelowOneThread))
         }
         _ => Cell::Empty,
     };
@@ -64,8 +65,9 @@ pub fn table(results: &[SceneResult]) -> Table {
                 results
                     .iter()
                     .map(|r| match r.traces.iter().find(|t| t.kind == kind) {
-                        Some(t) if all => Cell::Ratio(t.ratio_all_threads()),
-                        Some(t) => Cell::Ratio(t.ratio()),
+                        Some(t) if all => Cell::ratio_of(t.ratio_all_threads(), &t.all_threads)
+                            .flagged(t.below_one_thread().then_some(Flag::BelowOneThread)),
+                        Some(t) => Cell::ratio_of(t.ratio(), &t.one_thread),
                         None => Cell::Empty,
                     })
                     .collect(),
@@ -76,10 +78,119 @@ pub fn table(results: &[SceneResult]) -> Table {
         format!("frame, {threads} threads"),
         results
             .iter()
-            .map(|r| Cell::Ratio(r.frame_seconds[1].median / r.frame_seconds[0].median))
+            .map(|r| {
+                let [n, e] = r.frame_seconds.each_ref().map(Measured::seconds);
+                Cell::ratio_of(e.median / n.median, &[n, e])
+            })
             .collect(),
     );
     table
+}
+
+/// The measures the verdict reads, one thread: label and ratio per scene.
+fn one_thread_ratios(r: &SceneResult) -> Vec<(String, f64)> {
+    let mut out = Vec::new();
+    for t in &r.traces {
+        out.push((format!("{} rays", t.kind), t.ratio()));
+    }
+    if let (Some(n), Some(e)) = (r.build(&COMPARED[0]), r.build(&COMPARED[1])) {
+        out.push(("builds".into(), e.one_thread.median / n.one_thread.median));
+    }
+    out
+}
+
+/// `a–bx` (or `ax` when they round alike).
+fn range(values: &[f64]) -> String {
+    let lo = values.iter().copied().fold(f64::INFINITY, f64::min);
+    let hi = values.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    if format!("{lo:.2}") == format!("{hi:.2}") {
+        format!("{lo:.2}x")
+    } else {
+        format!("{lo:.2}–{hi:.2}x")
+    }
+}
+
+/// Ratios below this are where native is said to fall behind (within 5%
+/// the two are called even).
+const BEHIND: f64 = 0.95;
+
+/// The report's opening paragraph: what the headline table says, in words,
+/// from the measured ratios (greater than 1: native is faster).
+pub fn verdict(results: &[SceneResult], table: &Table) -> String {
+    let meshes: Vec<&SceneResult> = results.iter().filter(|r| r.triangles >= 10_000).collect();
+    let small: Vec<&SceneResult> = results.iter().filter(|r| r.triangles < 10_000).collect();
+    let threads = results.first().map_or(1, |r| r.threads);
+    let mut text = String::new();
+    let describe = |group: &[&SceneResult]| -> Vec<String> {
+        let Some(first) = group.first() else {
+            return Vec::new();
+        };
+        one_thread_ratios(first)
+            .iter()
+            .enumerate()
+            .map(|(i, (label, _))| {
+                let values: Vec<f64> = group
+                    .iter()
+                    .filter_map(|r| one_thread_ratios(r).get(i).map(|m| m.1))
+                    .collect();
+                format!("{} on {label}", range(&values))
+            })
+            .collect()
+    };
+    if !meshes.is_empty() {
+        text += &format!(
+            "On one thread, on the {} meshes of 10^4 triangles or more, the native BVH's speed is {} Embree's (ratios native / Embree: greater than 1 means native is faster). ",
+            meshes.len(),
+            describe(&meshes).join(", ")
+        );
+    }
+    if !small.is_empty() {
+        let names: Vec<String> = small.iter().map(|r| format!("{}-primitive", r.primitives)).collect();
+        text += &format!(
+            "On the {} scene{} it is {}. ",
+            names.join(" and "),
+            if small.len() > 1 { "s" } else { "" },
+            describe(&small).join(", ")
+        );
+    }
+    let frames: Vec<f64> = results
+        .iter()
+        .map(|r| r.frame_seconds[1].median / r.frame_seconds[0].median)
+        .collect();
+    if !frames.is_empty() {
+        text += &format!(
+            "A path-traced frame on {threads} threads renders at {} of Embree's speed. ",
+            range(&frames)
+        );
+    }
+    let behind: Vec<String> = results
+        .iter()
+        .filter_map(|r| {
+            let lost: Vec<String> = one_thread_ratios(r)
+                .into_iter()
+                .filter(|(_, v)| *v < BEHIND)
+                .map(|(label, v)| format!("{label} {v:.2}x"))
+                .collect();
+            (!lost.is_empty()).then(|| format!("{} ({})", r.scene, lost.join(", ")))
+        })
+        .collect();
+    if behind.is_empty() {
+        text += "On one thread native is at least Embree's equal (within 5%) on every scene and measure.";
+    } else {
+        text += &format!(
+            "On one thread native falls behind (below {BEHIND}x) on {}.",
+            behind.join("; ")
+        );
+    }
+    let (noisy, below) = (table.count(Flag::Noisy), table.count(Flag::BelowOneThread));
+    if noisy + below > 0 {
+        text += &format!(
+            " Of the headline's figures, {noisy} rest on repeats that spread by more than 10% ({}) and {below} on {threads} threads fell below their one-thread figure ({}): read those with care, or measure again.",
+            Flag::Noisy.mark(),
+            Flag::BelowOneThread.mark()
+        );
+    }
+    format!("{text}\n\n")
 }
 
 /// The headline section.
@@ -89,7 +200,7 @@ pub fn markdown(table: &Table, results: &[SceneResult]) -> String {
         .and_then(|r| r.traces.first())
         .map_or(0, |t| t.rays);
     format!(
-        "## Headline: native against Embree\n\nSpeed ratios, native over Embree (builds: Embree's time over native's): greater than 1 means native is faster. Medians of warmed-up repeats on the same rays (about {rays} per kind); the per-scene sections below give the absolute figures with their ranges and mark noisy ones. Ray kinds: camera (jittered pinhole grid over the framed scene), incoherent (origins uniform in the scene's bounds, uniform directions), shadow (the incoherent rays as occlusion queries reaching half the bounds' diagonal), bounce (diffuse rays leaving camera hits) and light (shadow rays from camera hits to light samples). The frame is the per-scene section's path-traced render.\n\n{}\n",
+        "## Headline: native against Embree\n\nSpeed ratios, native over Embree (builds and frames: Embree's time over native's): greater than 1 means native is faster. Medians of warmed-up repeats on the same rays (about {rays} per kind); ⚠ marks a ratio one of whose two figures spread by more than 10% over its repeats, ↓ a figure on all threads below the same figure on one thread (the per-scene sections below give the absolute figures with their ranges). Ray kinds: camera (jittered pinhole grid over the framed scene), incoherent (origins uniform in the scene's bounds, uniform directions), shadow (the incoherent rays as occlusion queries reaching half the bounds' diagonal), bounce (diffuse rays leaving camera hits) and light (shadow rays from camera hits to light samples). The frame is the per-scene section's path-traced render.\n\n{}\n",
         table.markdown()
     )
 }

@@ -5,17 +5,17 @@
 //!
 //! Sections, each measuring into typed rows: [`scenes`] (per-scene builds
 //! and traces), [`headline`] (read from the per-scene rows), [`brute`],
-//! [`error`], [`environment`], [`scaling`], [`gallery`]. [`table`] is the one writer of
+//! [`error`], [`adaptive`], [`environment`], [`scaling`], [`gallery`]. [`table`] is the one writer of
 //! rows as Markdown and JSON; [`budget`] holds the sizes and scene lists;
-//! [`measure`], [`plot`], [`grid`] and [`machine`] are their tools.
+//! [`measure`], [`plot`], [`sheet`] and [`machine`] are their tools.
 
+pub mod adaptive;
 pub mod brute;
 pub mod budget;
 pub mod environment;
 pub mod error;
 pub mod fireflies;
 pub mod gallery;
-pub mod grid;
 pub mod headline;
 pub mod machine;
 pub mod measure;
@@ -42,6 +42,8 @@ pub struct ReportOptions {
     pub quick: bool,
     /// Threads for the "all threads" figures; 0 means all cores.
     pub threads: usize,
+    /// The gallery's image size, if not the budget's.
+    pub tile: Option<(u32, u32)>,
 }
 
 /// Loads a shared scene of the report.
@@ -68,7 +70,10 @@ pub fn run(options: &ReportOptions, log: &mut dyn FnMut(&str)) -> Result<(), Str
             start.elapsed().as_secs_f64()
         ))
     };
-    let budget = Budget::new(options.quick);
+    let mut budget = Budget::new(options.quick);
+    if let Some(tile) = options.tile {
+        budget.gallery = tile;
+    }
     let threads = threads_or_all(options.threads);
     let out = &options.out_dir;
     std::fs::create_dir_all(out)
@@ -95,6 +100,8 @@ pub fn run(options: &ReportOptions, log: &mut dyn FnMut(&str)) -> Result<(), Str
     let error_study = error::measure(&budget, threads)?;
     error::plot(&error_study, out)?;
     step("speed against error measured");
+    let adaptive_study = adaptive::measure(&options.scenes_dir, &budget, threads)?;
+    step("adaptive against uniform measured");
     let environment_study = environment::measure(&budget, threads, out)?;
     step("environment light measured");
     let scaling = scaling::measure(&budget)?;
@@ -119,6 +126,8 @@ pub fn run(options: &ReportOptions, log: &mut dyn FnMut(&str)) -> Result<(), Str
         budget.rays,
         budget.repeats
     );
+    let verdict = headline::verdict(&per_scene, &headline);
+    md += &verdict;
     md += &headline::markdown(&headline, &per_scene);
     md += &error::headline(&error_study);
     md += &scenes_md;
@@ -127,6 +136,7 @@ pub fn run(options: &ReportOptions, log: &mut dyn FnMut(&str)) -> Result<(), Str
         brute_table.markdown()
     );
     md += &error::markdown(&error_study);
+    md += &adaptive::markdown(&adaptive_study);
     md += &environment::markdown(&environment_study, &budget);
     md += &scaling::markdown(&scaling);
     md += &gallery_md;
@@ -137,6 +147,7 @@ pub fn run(options: &ReportOptions, log: &mut dyn FnMut(&str)) -> Result<(), Str
     let report_json = json!({
         "machine": {"cpu": machine.cpu, "cores": machine.cores, "isa": machine.isa, "rustc": machine.rustc, "hybrid": machine.crate_version, "embree": embree_version, "date": machine.date},
         "settings": {"quick": options.quick, "rays": budget.rays, "repeats": budget.repeats, "threads": threads},
+        "verdict": verdict.trim(),
         "headline": headline.json(),
         "scenes": scenes_json,
         "brute_force": brute_table.json(),
@@ -147,6 +158,7 @@ pub fn run(options: &ReportOptions, log: &mut dyn FnMut(&str)) -> Result<(), Str
             "equal_time_seconds": error_study.equal_time(),
             "equal_time": error::equal_time_table(&error_study).json(),
         },
+        "adaptive_vs_uniform": adaptive::table(&adaptive_study).json(),
         "environment": environment::table(&environment_study).json(),
         "scaling": {
             "rows": scaling::table(&scaling).json(),

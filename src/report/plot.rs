@@ -2,6 +2,7 @@
 
 use std::path::Path;
 
+use plotters::coord::combinators::BindKeyPoints;
 use plotters::prelude::*;
 
 /// One named line of points.
@@ -21,7 +22,14 @@ const COLOURS: [RGBColor; 8] = [
     RGBColor(23, 190, 207),
 ];
 
-/// Draws `series` on log-log axes into an SVG file.
+/// Width of the plot and of the legend column beside it (the legend never
+/// covers data).
+const PLOT_SIZE: (u32, u32) = (880, 560);
+const LEGEND_WIDTH: u32 = 230;
+
+/// Draws `series` on log-log axes into an SVG file: grid lines only at the
+/// labelled ticks (1, 2 and 5 per decade, or fewer on wide ranges), the
+/// legend in a column to the right of the axes.
 pub fn loglog(
     path: &Path,
     title: &str,
@@ -43,16 +51,20 @@ pub fn loglog(
     if x0 > x1 {
         return Err(format!("{}: nothing to plot", path.display()));
     }
-    let (x0, x1, y0, y1) = (x0 / 1.5, x1 * 1.5, y0 / 1.5, y1 * 1.5);
+    let (x0, x1, y0, y1) = (x0 / 1.3, x1 * 1.3, y0 / 1.3, y1 * 1.3);
     let draw = || -> Result<(), Box<dyn std::error::Error>> {
-        let root = SVGBackend::new(path, (800, 560)).into_drawing_area();
+        let root = SVGBackend::new(path, PLOT_SIZE).into_drawing_area();
         root.fill(&WHITE)?;
-        let mut chart = ChartBuilder::on(&root)
+        let (plot_area, legend_area) = root.split_horizontally(PLOT_SIZE.0 - LEGEND_WIDTH);
+        let mut chart = ChartBuilder::on(&plot_area)
             .caption(title, ("sans-serif", 22))
             .margin(16)
             .x_label_area_size(44)
             .y_label_area_size(64)
-            .build_cartesian_2d((x0..x1).log_scale(), (y0..y1).log_scale())?;
+            .build_cartesian_2d(
+                (x0..x1).log_scale().with_key_points(log_ticks(x0, x1)),
+                (y0..y1).log_scale().with_key_points(log_ticks(y0, y1)),
+            )?;
         chart
             .configure_mesh()
             .x_desc(x_label)
@@ -60,6 +72,8 @@ pub fn loglog(
             .x_label_formatter(&|v| tick(*v))
             .y_label_formatter(&|v| tick(*v))
             .label_style(("sans-serif", 14))
+            .bold_line_style(BLACK.mix(0.12))
+            .light_line_style(TRANSPARENT)
             .draw()?;
         for (i, s) in series.iter().enumerate() {
             let colour = COLOURS[i % COLOURS.len()];
@@ -69,25 +83,50 @@ pub fn loglog(
                 .copied()
                 .filter(|(x, y)| *x > 0.0 && *y > 0.0)
                 .collect();
-            chart
-                .draw_series(LineSeries::new(pts.clone(), colour.stroke_width(2)))?
-                .label(s.name.clone())
-                .legend(move |(x, y)| {
-                    PathElement::new(vec![(x, y), (x + 18, y)], colour.stroke_width(2))
-                });
+            chart.draw_series(LineSeries::new(pts.clone(), colour.stroke_width(2)))?;
             chart.draw_series(pts.into_iter().map(|p| Circle::new(p, 3, colour.filled())))?;
+            // The legend: one line per series, top down, beside the axes.
+            let y = 70 + 24 * i as i32;
+            legend_area.draw(&PathElement::new(
+                vec![(8, y), (34, y)],
+                colour.stroke_width(3),
+            ))?;
+            legend_area.draw(&Text::new(
+                s.name.clone(),
+                (42, y - 7),
+                ("sans-serif", 14).into_font(),
+            ))?;
         }
-        chart
-            .configure_series_labels()
-            .position(SeriesLabelPosition::UpperRight)
-            .background_style(WHITE.mix(0.85))
-            .border_style(BLACK)
-            .label_font(("sans-serif", 13))
-            .draw()?;
         root.present()?;
         Ok(())
     };
     draw().map_err(|e| format!("{}: cannot draw the plot: {e}", path.display()))
+}
+
+/// Tick values for a log axis over `lo..hi`: 1, 2 and 5 times each power
+/// of ten inside, or only 1 and 3 (or only the powers) when that would
+/// give more than 12; at least the two ends' nearest values.
+fn log_ticks(lo: f64, hi: f64) -> Vec<f64> {
+    let first = lo.log10().floor() as i32;
+    let last = hi.log10().ceil() as i32;
+    let within = |steps: &[f64]| -> Vec<f64> {
+        (first..=last)
+            .flat_map(|e| steps.iter().map(move |m| m * 10f64.powi(e)))
+            .filter(|v| (lo..=hi).contains(v))
+            .collect()
+    };
+    for steps in [&[1.0, 2.0, 5.0][..], &[1.0, 3.0], &[1.0]] {
+        let ticks = within(steps);
+        if ticks.len() <= 12 && ticks.len() >= 3 || steps.len() == 1 {
+            if ticks.len() >= 2 {
+                return ticks;
+            }
+        }
+    }
+    // A range inside one decade: ten evenly spaced in the log.
+    (0..=4)
+        .map(|k| lo * (hi / lo).powf(k as f64 / 4.0))
+        .collect()
 }
 
 /// A short tick label: plain for 0.01..10000, scientific otherwise.
@@ -98,6 +137,7 @@ fn tick(v: f64) -> String {
     let a = v.abs();
     if (0.01..10_000.0).contains(&a) {
         let s = format!("{v:.3}");
+        let s = if a < 0.1 { format!("{v:.4}") } else { s };
         s.trim_end_matches('0').trim_end_matches('.').to_string()
     } else {
         format!("{v:.0e}")

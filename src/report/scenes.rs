@@ -7,7 +7,7 @@ use serde_json::{json, Value};
 use super::budget::Budget;
 use super::budget::ALL_BUILDS_UP_TO;
 use super::measure::{mrays, on_threads, ray_sets, time_repeats, Timing};
-use super::table::{Cell, Measured, Table};
+use super::table::{Cell, Flag, Measured, Table};
 use crate::accel::config::{BUILD_VARIANTS, COMPARED};
 use crate::accel::{Accel, AccelStats, Backend, BackendConfig};
 use crate::render::integrator::{PathSettings, Shading};
@@ -40,6 +40,12 @@ impl TraceRow {
 
     pub fn ratio_all_threads(&self) -> f64 {
         self.all_threads[0].median / self.all_threads[1].median
+    }
+
+    /// Whether either backend traced fewer rays per second on all threads
+    /// than on one.
+    pub fn below_one_thread(&self) -> bool {
+        (0..2).any(|i| self.all_threads[i].median < self.one_thread[i].median)
     }
 }
 
@@ -186,7 +192,9 @@ fn builds_table(r: &SceneResult) -> Table {
         table.row(vec![
             Cell::Text(b.config.label()),
             Cell::Measured(Measured::millis(&b.one_thread), 2),
-            Cell::Measured(Measured::millis(&b.all_threads), 2),
+            Cell::Measured(Measured::millis(&b.all_threads), 2).flagged(
+                (b.all_threads.median > b.one_thread.median).then_some(Flag::BelowOneThread),
+            ),
             Cell::Number(b.stats.memory_bytes as f64 / (1 << 20) as f64, 2),
             or_empty(Cell::Count(b.stats.nodes as u64)),
             or_empty(Cell::Count(b.stats.depth as u64)),
@@ -210,15 +218,22 @@ fn traces_table(r: &SceneResult) -> Table {
         ("ratio_all_threads", format!("{a}/{b}")),
     ]);
     for row in &r.traces {
+        // A figure on all threads below its one-thread figure is flagged.
+        let below = |i: usize| {
+            Cell::Measured(row.all_threads[i], 2).flagged(
+                (row.all_threads[i].median < row.one_thread[i].median)
+                    .then_some(Flag::BelowOneThread),
+            )
+        };
         table.row(vec![
             Cell::Text(row.kind.into()),
             Cell::Count(row.rays as u64),
             Cell::Measured(row.one_thread[0], 2),
             Cell::Measured(row.one_thread[1], 2),
-            Cell::Ratio(row.ratio()),
-            Cell::Measured(row.all_threads[0], 2),
-            Cell::Measured(row.all_threads[1], 2),
-            Cell::Ratio(row.ratio_all_threads()),
+            Cell::ratio_of(row.ratio(), &row.one_thread),
+            below(0),
+            below(1),
+            Cell::ratio_of(row.ratio_all_threads(), &row.all_threads),
         ]);
     }
     table
@@ -226,7 +241,7 @@ fn traces_table(r: &SceneResult) -> Table {
 
 /// The per-scene section: Markdown and the JSON of every scene.
 pub fn section(results: &[SceneResult]) -> (String, Value) {
-    let mut md = String::from("## Build and trace, per scene\n\nMedians of warmed-up repeats with their range (min–max); ⚠ marks figures whose repeats spread by more than 10%. Ratios are native / Embree throughput: greater than 1 means native is faster.\n\n");
+    let mut md = String::from("## Build and trace, per scene\n\nMedians of warmed-up repeats with their range (min–max); ⚠ marks figures whose repeats spread by more than 10% (and ratios of such figures), ↓ a figure on all threads worse than the same on one thread. Ratios are native / Embree throughput: greater than 1 means native is faster.\n\n");
     let mut scenes = Vec::new();
     for r in results {
         let builds = builds_table(r);
@@ -234,7 +249,7 @@ pub fn section(results: &[SceneResult]) -> (String, Value) {
         let (w, h, spp) = r.frame;
         let frame = [0, 1].map(|i| r.frame_seconds[i].median);
         md += &format!(
-            "### {} ({}: {} primitives)\n\n{}\n{}\nEmbree ray stream (`rtcIntersect1M`, coherent flag) on the same camera rays, 1 thread: {:.2} Mrays/s against {:.2} with single-ray calls ({:.2}x).\n\nTime per frame ({w}x{h}, {spp} spp, 3 bounces, light sampling, {} threads): native {:.3} s, embree {:.3} s (native/embree time {:.2}).\n\n",
+            "### {} ({}: {} primitives)\n\n{}\n{}\nEmbree ray stream (`rtcIntersect1M`, coherent flag) on the same camera rays, 1 thread: {:.2} Mrays/s against {:.2} with single-ray calls ({:.2}x).\n\nTime per frame ({w}x{h}, {spp} spp, 3 bounces, light sampling, {} threads): native {:.3} s, embree {:.3} s (Embree's time / native's {:.2}x: greater than 1 means native is faster).\n\n",
             r.scene,
             r.size,
             r.primitives,
@@ -246,7 +261,7 @@ pub fn section(results: &[SceneResult]) -> (String, Value) {
             r.threads,
             frame[0],
             frame[1],
-            frame[0] / frame[1],
+            frame[1] / frame[0],
         );
         scenes.push(json!({
             "scene": r.scene,

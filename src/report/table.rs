@@ -22,7 +22,64 @@ pub enum Cell {
     /// The median of repeated measurements and their range, printed with
     /// this many decimals; marked when the repeats are noisy.
     Measured(Measured, usize),
+    /// A cell with a warning about how far to trust it.
+    Flagged(Box<Cell>, Flag),
     Empty,
+}
+
+/// Why a figure deserves care.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Flag {
+    /// A figure derived from repeats that spread by more than
+    /// [`NOISY_SPREAD`] (a ratio of two measurements, say).
+    Noisy,
+    /// A figure on all threads that is below the same figure on one
+    /// thread: the extra threads cost time, or something else ran.
+    BelowOneThread,
+}
+
+impl Flag {
+    /// The mark after the figure in Markdown.
+    pub const fn mark(self) -> &'static str {
+        match self {
+            Flag::Noisy => "⚠",
+            Flag::BelowOneThread => "↓",
+        }
+    }
+
+    /// The JSON key suffix set to `true`.
+    const fn key(self) -> &'static str {
+        match self {
+            Flag::Noisy => "noisy",
+            Flag::BelowOneThread => "below_one_thread",
+        }
+    }
+}
+
+impl Cell {
+    /// This cell, flagged when `flag` is some.
+    pub fn flagged(self, flag: Option<Flag>) -> Cell {
+        match flag {
+            Some(f) => Cell::Flagged(Box::new(self), f),
+            None => self,
+        }
+    }
+
+    /// The ratio `value` of measurements `of`, flagged noisy when any of
+    /// them is.
+    pub fn ratio_of(value: f64, of: &[Measured]) -> Cell {
+        Cell::Ratio(value).flagged(of.iter().any(Measured::is_noisy).then_some(Flag::Noisy))
+    }
+
+    /// Whether this cell carries `flag` (a measured cell is noisy by its
+    /// own repeats).
+    pub fn has(&self, flag: Flag) -> bool {
+        match self {
+            Cell::Measured(m, _) => flag == Flag::Noisy && m.is_noisy(),
+            Cell::Flagged(inner, f) => *f == flag || inner.has(flag),
+            _ => false,
+        }
+    }
 }
 
 /// A figure measured several times: its median, smallest and largest value.
@@ -150,12 +207,9 @@ impl Table {
         )
     }
 
-    /// Whether any measured cell is noisy (for a footnote).
-    pub fn has_noisy(&self) -> bool {
-        self.rows
-            .iter()
-            .flatten()
-            .any(|c| matches!(c, Cell::Measured(m, _) if m.is_noisy()))
+    /// How many cells carry `flag`.
+    pub fn count(&self, flag: Flag) -> usize {
+        self.rows.iter().flatten().filter(|c| c.has(flag)).count()
     }
 }
 
@@ -172,6 +226,14 @@ fn markdown_cell(cell: &Cell) -> String {
             m.max,
             if m.is_noisy() { " ⚠" } else { "" }
         ),
+        Cell::Flagged(inner, flag) => {
+            let text = markdown_cell(inner);
+            if text.ends_with(flag.mark()) {
+                text
+            } else {
+                format!("{text} {}", flag.mark())
+            }
+        }
         Cell::Empty => "–".into(),
     }
 }
@@ -193,6 +255,10 @@ fn insert_json(object: &mut Map<String, Value>, key: &str, cell: &Cell) {
             object.insert(format!("{key}_min"), number(m.min));
             object.insert(format!("{key}_max"), number(m.max));
             object.insert(format!("{key}_noisy"), Value::Bool(m.is_noisy()));
+        }
+        Cell::Flagged(inner, flag) => {
+            insert_json(object, key, inner);
+            object.insert(format!("{key}_{}", flag.key()), Value::Bool(true));
         }
         Cell::Empty => {
             object.insert(key.into(), Value::Null);
@@ -226,6 +292,28 @@ mod tests {
         assert_eq!(json[1]["mrays"], 10.0);
         assert_eq!(json[1]["mrays_noisy"], true);
         assert_eq!(json[0]["mrays_noisy"], false);
-        assert!(t.has_noisy());
+        assert_eq!(t.count(Flag::Noisy), 1);
+    }
+
+    #[test]
+    fn flagged_cells_are_marked_once_and_keyed_in_json() {
+        let mut t = Table::new([("kind", "kind"), ("ratio", "ratio")]);
+        t.row(vec![
+            Cell::Text("a".into()),
+            Cell::Ratio(0.6).flagged(Some(Flag::BelowOneThread)),
+        ]);
+        t.row(vec![
+            Cell::Text("b".into()),
+            Cell::Ratio(1.2).flagged(Some(Flag::Noisy)).flagged(None),
+        ]);
+        let md = t.markdown();
+        assert!(md.contains("| a | 0.60x ↓ |"), "{md}");
+        assert!(md.contains("| b | 1.20x ⚠ |"), "{md}");
+        let json = t.json();
+        assert_eq!(json[0]["ratio"], 0.6);
+        assert_eq!(json[0]["ratio_below_one_thread"], true);
+        assert_eq!(json[1]["ratio_noisy"], true);
+        assert_eq!(t.count(Flag::Noisy), 1);
+        assert_eq!(t.count(Flag::BelowOneThread), 1);
     }
 }

@@ -16,6 +16,7 @@ fn quick_report_writes_every_section_and_the_headline_figures() {
         out_dir: out.clone(),
         quick: true,
         threads: 2,
+        tile: Some((64, 48)),
     };
     run(&options, &mut |line| println!("{line}")).expect("the report runs");
 
@@ -25,10 +26,21 @@ fn quick_report_writes_every_section_and_the_headline_figures() {
         "## With and without acceleration",
         "## Speed against error",
         "## How cost grows with scene size",
+        "## Adaptive against uniform sampling at equal time",
         "## Gallery",
     ] {
         assert!(md.contains(section), "report.md lacks '{section}'");
     }
+    // The verdict opens the report, before any table.
+    let verdict = md
+        .split("\n\n")
+        .find(|p| p.starts_with("On one thread"))
+        .expect("a verdict paragraph");
+    assert!(
+        md.find(verdict) < md.find("## Headline"),
+        "the verdict does not come before the headline"
+    );
+    assert!(verdict.contains("greater than 1 means native is faster"), "{verdict}");
     let json: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).unwrap())
             .expect("valid JSON");
@@ -67,6 +79,30 @@ fn quick_report_writes_every_section_and_the_headline_figures() {
             );
         }
     }
+    // The verdict quotes the meshes' camera-ray range from the same figures.
+    let camera: Vec<f64> = scenes
+        .iter()
+        .enumerate()
+        .filter(|(_, s)| s["primitives"].as_u64().unwrap() >= 10_000)
+        .map(|(i, _)| row("camera rays, 1 thread")[&format!("scene_{i}")].as_f64().unwrap())
+        .collect();
+    let lo = camera.iter().copied().fold(f64::INFINITY, f64::min);
+    assert!(
+        verdict.contains(&format!("{lo:.2}")),
+        "the verdict does not quote the slowest camera ratio {lo:.2}: {verdict}"
+    );
+    assert_eq!(json["verdict"].as_str(), Some(verdict.trim()));
+    // Adaptive against uniform: one row per scene, each with a winner.
+    let adaptive = json["adaptive_vs_uniform"].as_array().expect("adaptive rows");
+    assert_eq!(adaptive.len(), 3);
+    for r in adaptive {
+        positive(&r["advantage"], "adaptive advantage");
+        let scene = r["scene"].as_str().unwrap();
+        assert!(
+            md.contains(&format!("- `{scene}`: ")),
+            "no finding for {scene}"
+        );
+    }
     let rows = json["scaling"]["rows"].as_array().unwrap();
     assert!(
         rows.last().unwrap()["triangles"].as_f64().unwrap() >= 1e6 * 0.99,
@@ -98,6 +134,14 @@ fn quick_report_writes_every_section_and_the_headline_figures() {
             "{file} is {}x{}",
             img.width(),
             img.height()
+        );
+        // Labelled sheets of --tile 64 48 images: a gap of 8 around each
+        // and a caption under it, so the width is a whole number of tiles.
+        assert_eq!(
+            (img.width() - 8) % (64 + 8),
+            0,
+            "{file}: {} wide is not a sheet of 64-pixel tiles",
+            img.width()
         );
     }
 }
