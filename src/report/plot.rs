@@ -163,3 +163,25 @@ pub fn loglog_slope(points: &[(f64, f64)]) -> f64 {
     let sxx: f64 = pts.iter().map(|p| (p.0 - mx) * (p.0 - mx)).sum();
     sxy / sxx
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn log_axes_get_labelled_ticks_inside_their_range() {
+        // Under two decades: 1, 2 and 5 per decade.
+        assert_eq!(
+            log_ticks(0.0007, 0.06),
+            vec![0.001, 0.002, 0.005, 0.01, 0.02, 0.05]
+        );
+        // Four decades would give 13: 1 and 3 instead.
+        let wide = log_ticks(50.0, 2e6);
+        assert!(wide.len() <= 12 && wide.len() >= 5, "{wide:?}");
+        assert!(wide.iter().all(|v| (50.0..=2e6).contains(v)));
+        // Inside one decade: still several ticks, spread in the log.
+        let narrow = log_ticks(0.11, 0.15);
+        assert!(narrow.len() >= 3, "{narrow:?}");
+        assert!(narrow.windows(2).all(|w| w[0] < w[1]));
+    }
+}
