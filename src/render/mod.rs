@@ -295,3 +295,24 @@ fn pixel<A: Accel>(
     }
     (sum, done - first)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The first tenth of the rows rendered reaches every quarter of the
+    /// frame, so an estimate from them sees background and content alike.
+    #[test]
+    fn rows_are_taken_in_an_order_spread_over_the_frame() {
+        let height = 360u32;
+        let mut order: Vec<u32> = (0..height).collect();
+        order.sort_unstable_by_key(|&r| scattered(r));
+        let mut quarters = [0usize; 4];
+        for &row in &order[..36] {
+            quarters[(row * 4 / height) as usize] += 1;
+        }
+        assert!(quarters.iter().all(|&n| n >= 4), "first rows by quarter: {quarters:?}");
+        order.sort_unstable();
+        assert_eq!(order, (0..height).collect::<Vec<_>>(), "every row once");
+    }
+}

@@ -628,3 +628,37 @@ fn mis_has_far_less_error_than_light_sampling_on_the_glossy_scene() {
         );
     }
 }
+
+/// Progress is reported in camera samples: with adaptive sampling the rows
+/// report exactly the samples the film holds, not the cap.
+#[test]
+fn progress_counts_the_samples_taken() {
+    use std::sync::atomic::{AtomicU64, Ordering};
+    struct Count(AtomicU64, AtomicU64);
+    impl hybrid::render::Progress for Count {
+        fn row_done(&self, samples: u64) {
+            self.0.fetch_add(samples, Ordering::Relaxed);
+            self.1.fetch_add(1, Ordering::Relaxed);
+        }
+    }
+    let scene = common::default_scene();
+    let accel = NativeBvh::build(&scene, &NativeOptions::default()).expect("native builds");
+    let settings = RenderSettings {
+        width: 24,
+        height: 18,
+        samples: 64,
+        threads: 2,
+        shading: Shading::Path(path(DirectEstimator::Mis, 2)),
+        adaptive: Some(Adaptive {
+            batch: 4,
+            tolerance: 0.2,
+        }),
+        ..RenderSettings::default()
+    };
+    let count = Count(AtomicU64::new(0), AtomicU64::new(0));
+    let out = render(&scene, &accel, &settings, &count);
+    let taken: u64 = out.film.samples.iter().map(|&n| u64::from(n)).sum();
+    assert_eq!(count.1.load(Ordering::Relaxed), 18, "one report per row");
+    assert_eq!(count.0.load(Ordering::Relaxed), taken);
+    assert!(taken < 24 * 18 * 64, "adaptive sampling stopped no pixel early");
+}
