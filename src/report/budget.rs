@@ -75,7 +75,7 @@ impl Budget {
                 spp_series: vec![1, 2, 4, 8, 16, 64, 256, 1024],
                 adaptive_gallery: (64, 0.05, 2048),
                 estimator_gallery: (1024, 128),
-                adaptive_study: ((160, 120), 8192, 32, 0.05, 2048),
+                adaptive_study: ((160, 120), 4096, 32, 0.05, 1024),
                 environment_resolution: (160, 120),
                 environment_spp: vec![1, 4, 16, 64, 256],
                 environment_reference_spp: 4096,
