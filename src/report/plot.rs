@@ -117,10 +117,11 @@ fn log_ticks(lo: f64, hi: f64) -> Vec<f64> {
     };
     for steps in [&[1.0, 2.0, 5.0][..], &[1.0, 3.0], &[1.0]] {
         let ticks = within(steps);
-        if ticks.len() <= 12 && ticks.len() >= 3 || steps.len() == 1 {
-            if ticks.len() >= 2 {
-                return ticks;
-            }
+        // Enough to read the axis by, not so many they crowd; the powers
+        // alone are taken if there are at least two.
+        let enough = (3..=12).contains(&ticks.len()) || (steps.len() == 1 && ticks.len() >= 2);
+        if enough {
+            return ticks;
         }
     }
     // A range inside one decade: ten evenly spaced in the log.
