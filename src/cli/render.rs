@@ -145,7 +145,8 @@ pub struct RenderArgs {
     /// Native backend: build method.
     #[arg(long, value_parser = choice::<BuildMethod>(), default_value = BuildMethod::default().name())]
     pub build: BuildMethod,
-    /// Native backend: largest leaf.
+    /// Native backend: largest leaf (0: four triangles, eight from 2^19
+    /// triangles on).
     #[arg(long, default_value_t = NativeOptions::DEFAULT.max_leaf)]
     pub leaf: usize,
     /// Embree backend: build quality.
@@ -261,8 +262,11 @@ impl RenderArgs {
                 return Err(format!("--crease {deg}: the angle must be 0..=180 degrees"));
             }
         }
-        if self.leaf == 0 || self.leaf > 16 {
-            return Err(format!("--leaf {}: leaf size must be 1..=16", self.leaf));
+        if self.leaf > 16 {
+            return Err(format!(
+                "--leaf {}: leaf size must be 1..=16 (or 0: by mesh size)",
+                self.leaf
+            ));
         }
         if let Some(p) = self.russian_roulette() {
             if !(p > 0.0 && p <= 1.0) {

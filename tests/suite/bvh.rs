@@ -14,7 +14,8 @@ use crate::common::{self, scene_or_skip};
 
 /// Every triangle sits in exactly one leaf of at most `max_leaf`, inside
 /// the leaf's box; every child box lies inside its parent's.
-fn check_invariants(name: &str, bvh: &NativeBvh, scene: &Scene, max_leaf: usize) {
+fn check_invariants(name: &str, bvh: &NativeBvh, scene: &Scene, max_leaf: usize) -> usize {
+    let mut largest = 0;
     let mut seen = vec![0u32; scene.mesh.len()];
     let inside = |inner: &Bounds, outer: &Bounds| {
         inner.min.cmpge(outer.min).all() && inner.max.cmple(outer.max).all()
@@ -31,6 +32,7 @@ fn check_invariants(name: &str, bvh: &NativeBvh, scene: &Scene, max_leaf: usize)
             }
             if is_leaf(r) {
                 let prims = bvh.leaf_triangles(r);
+                largest = largest.max(prims.len());
                 assert!(
                     prims.len() <= max_leaf,
                     "{name}: a leaf holds {} > {max_leaf} ({} blocks)",
@@ -63,6 +65,26 @@ fn check_invariants(name: &str, bvh: &NativeBvh, scene: &Scene, max_leaf: usize)
         missing == 0 && doubled == 0,
         "{name}: {missing} triangles in no leaf, {doubled} in several"
     );
+    largest
+}
+
+/// By default leaves hold one block of four triangles, and up to two
+/// blocks from 2^19 triangles on (large trees, whose nodes leave the
+/// cache); the SAH fills the second block where it pays.
+#[test]
+fn large_meshes_get_leaves_of_two_blocks_by_default() {
+    use hybrid::accel::native::LARGE_TREE;
+    use hybrid::scene::generate::sphere_cloud;
+    // 20480 triangles per sphere: just above and just below the threshold.
+    for (count, cap) in [(26, 8), (25, 4)] {
+        let scene = sphere_cloud(count, 5, 1);
+        let n = scene.mesh.len();
+        assert_eq!(n >= LARGE_TREE, cap == 8, "{n} triangles");
+        let bvh = NativeBvh::build(&scene, &NativeOptions::default()).expect("builds");
+        let largest = check_invariants(&format!("{n} triangles"), &bvh, &scene, cap);
+        assert!(largest > cap / 2, "{n} triangles: no leaf above {}", cap / 2);
+        assert!(bvh.stats().details.contains(&format!("max leaf {cap}")));
+    }
 }
 
 #[test]
