@@ -279,7 +279,22 @@ pub fn run(args: &SeriesArgs, raw: &[String]) -> Result<(), String> {
             render_args.tone_map(),
         ));
     }
-    let fixed = fixed_options(raw, args.render.input.scene.as_deref());
+    let mut fixed = fixed_options(raw, args.render.input.scene.as_deref());
+    // Without a scene the default scene's converged settings fill in what
+    // was not given (as for `hybrid render`); the title says which.
+    let preset = variants
+        .first()
+        .map(|(_, r, _)| r.preset_options())
+        .unwrap_or_default();
+    if !preset.is_empty() {
+        say!("series: the default scene with converged settings: {preset}");
+        fixed = [fixed.as_str(), preset.as_str()]
+            .iter()
+            .filter(|s| !s.is_empty())
+            .copied()
+            .collect::<Vec<_>>()
+            .join(" ");
+    }
     let title = format!(
         "{scene_name} · {} · varying {}",
         if fixed.is_empty() {

@@ -92,3 +92,26 @@ fn a_series_refuses_unknown_options_and_bad_values_before_rendering() {
         "--vary estimator=best",
     );
 }
+
+/// Without a scene, the default scene's converged settings fill in what
+/// was not given, and the series says which; the varied option is its own.
+#[test]
+fn a_series_of_the_default_scene_takes_its_converged_settings() {
+    let dir = scratch("series-preset");
+    let o = crate::common::hybrid(
+        &["series", "--vary", "s=1,2", "-r", "16", "12", "-f", "p.png"],
+        &dir,
+    );
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(o.status.success(), "{out}");
+    assert!(out.contains("converged settings: -m 8 --rr 0.8"), "{out}");
+    assert!(!out.contains("-s 256"), "the varied -s was overridden: {out}");
+    // A scene file keeps the course's defaults: no preset.
+    let file = concat!(env!("CARGO_MANIFEST_DIR"), "/dae/cornell.dae");
+    let o = crate::common::hybrid(
+        &["series", "--vary", "s=1,2", "-r", "16", "12", "-f", "q.png", file],
+        &dir,
+    );
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(o.status.success() && !out.contains("converged"), "{out}");
+}
