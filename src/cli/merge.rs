@@ -31,11 +31,8 @@ pub fn run(args: &MergeArgs) -> Result<(), String> {
     if film.origin.adaptive.is_some() {
         let rate = rate_path(&args.output);
         check_writable(&rate).map_err(|e| e.to_string())?;
-        write_files(&[
-            (&args.output, image),
-            (&rate, film.rate_file()),
-        ])
-        .map_err(|e| e.to_string())?;
+        write_files(&[(&args.output, image), (&rate, film.rate_file())])
+            .map_err(|e| e.to_string())?;
     } else {
         write_files(&[(&args.output, image)]).map_err(|e| e.to_string())?;
     }

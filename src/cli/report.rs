@@ -39,7 +39,10 @@ pub fn run(args: &ReportArgs) -> Result<(), String> {
         Some(t) => {
             return Err(format!(
                 "--tile {}: each side must be 8..=4096 pixels",
-                t.iter().map(|v| v.to_string()).collect::<Vec<_>>().join(" ")
+                t.iter()
+                    .map(|v| v.to_string())
+                    .collect::<Vec<_>>()
+                    .join(" ")
             ))
         }
         None => None,

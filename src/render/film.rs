@@ -202,11 +202,23 @@ impl RateScale {
             let centre = MARGIN as f32 + self.position(v) * (span - 1) as f32;
             let left = (centre - w / 2.0).clamp(0.0, (width as f32 - w).max(0.0));
             let right = left + w;
-            if right > width as f32 || taken.iter().any(|&(l, r)| left < r + 4.0 && l < right + 4.0) {
+            if right > width as f32
+                || taken
+                    .iter()
+                    .any(|&(l, r)| left < r + 4.0 && l < right + 4.0)
+            {
                 continue;
             }
             taken.push((left, right));
-            crate::text::draw_centred(img, &font, LABEL_PX, &text, left as u32, w.ceil() as u32 + 1, y0 + 12);
+            crate::text::draw_centred(
+                img,
+                &font,
+                LABEL_PX,
+                &text,
+                left as u32,
+                w.ceil() as u32 + 1,
+                y0 + 12,
+            );
         }
     }
 }

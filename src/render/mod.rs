@@ -311,7 +311,10 @@ mod tests {
         for &row in &order[..36] {
             quarters[(row * 4 / height) as usize] += 1;
         }
-        assert!(quarters.iter().all(|&n| n >= 4), "first rows by quarter: {quarters:?}");
+        assert!(
+            quarters.iter().all(|&n| n >= 4),
+            "first rows by quarter: {quarters:?}"
+        );
         order.sort_unstable();
         assert_eq!(order, (0..height).collect::<Vec<_>>(), "every row once");
     }

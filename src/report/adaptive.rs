@@ -101,7 +101,12 @@ pub fn measure(dir: &Path, budget: &Budget, threads: usize) -> Result<AdaptiveSt
             a_film.samples.iter().filter(|&&n| f(n)).count() as f64 / pixels
         };
         let (mut stopped, mut background, mut stopped_sq, mut all_sq) = (0usize, 0usize, 0.0, 0.0);
-        for ((n, a), r) in a_film.samples.iter().zip(&a_film.pixels).zip(&reference.pixels) {
+        for ((n, a), r) in a_film
+            .samples
+            .iter()
+            .zip(&a_film.pixels)
+            .zip(&reference.pixels)
+        {
             let sq = f64::from((*a - *r).length_squared());
             all_sq += sq;
             if *n <= batch {
@@ -120,7 +125,11 @@ pub fn measure(dir: &Path, budget: &Budget, threads: usize) -> Result<AdaptiveSt
             stopped_early: share(&|n| n <= batch),
             capped: share(&|n| n >= cap),
             stopped_background: background as f64 / stopped.max(1) as f64,
-            stopped_error: if all_sq > 0.0 { stopped_sq / all_sq } else { 0.0 },
+            stopped_error: if all_sq > 0.0 {
+                stopped_sq / all_sq
+            } else {
+                0.0
+            },
             uniform_spp,
             uniform_seconds: u_seconds,
             uniform_rmse: rmse(&u_film, &reference),
@@ -180,7 +189,10 @@ fn findings(study: &AdaptiveStudy) -> String {
         let background = 100.0 * r.stopped_background;
         let share = 100.0 * r.stopped_error;
         let winner = if r.advantage() > 1.05 {
-            format!("adaptive sampling wins ({:.2}x less error at equal time)", r.advantage())
+            format!(
+                "adaptive sampling wins ({:.2}x less error at equal time)",
+                r.advantage()
+            )
         } else if r.advantage() < 0.95 {
             format!(
                 "uniform sampling wins (adaptive has {:.2}x its error at equal time)",

@@ -10,8 +10,8 @@ use image::RgbImage;
 use super::budget::{Budget, NORMALS_SCENES, SAMPLES_SCENE, SERIES_SCENE};
 use super::error::ESTIMATORS;
 use super::fireflies::film_fireflies;
-use super::sheet::write_sheet;
 use super::load;
+use super::sheet::write_sheet;
 use crate::accel::BackendConfig;
 use crate::render::film::{Film, ToneMap};
 use crate::render::integrator::{PathSettings, Shading};
@@ -52,7 +52,11 @@ impl Shooter {
 
 /// A shared scene's file name without the folder and `.dae`.
 fn scene_name(rel: &str) -> String {
-    rel.rsplit('/').next().unwrap_or(rel).trim_end_matches(".dae").to_string()
+    rel.rsplit('/')
+        .next()
+        .unwrap_or(rel)
+        .trim_end_matches(".dae")
+        .to_string()
 }
 
 pub(crate) fn image(film: &Film, map: ToneMap) -> RgbImage {
@@ -88,7 +92,10 @@ pub fn section(dir: &Path, out: &Path, budget: &Budget, threads: usize) -> Resul
         .iter()
         .map(|rel| {
             let s = load(dir, rel)?;
-            let img = image(&shooter.film(&s, 4, Shading::Normals, None)?, ToneMap::Identity);
+            let img = image(
+                &shooter.film(&s, 4, Shading::Normals, None)?,
+                ToneMap::Identity,
+            );
             Ok((img, scene_name(rel)))
         })
         .collect::<Result<Vec<_>, String>>()?;
@@ -227,7 +234,9 @@ fn estimators(shooter: &Shooter, out: &Path, budget: &Budget) -> Result<String, 
                 None,
             )?;
             let (fireflies, speckles) = (film_fireflies(&film, 10.0), film_fireflies(&film, 2.0));
-            captions.push(format!("{label} ({fireflies} fireflies, {speckles} speckles)"));
+            captions.push(format!(
+                "{label} ({fireflies} fireflies, {speckles} speckles)"
+            ));
             tiles.push((
                 image(&film, ToneMap::Reference),
                 format!("{label} · {fireflies} / {speckles}"),
@@ -242,7 +251,10 @@ fn estimators(shooter: &Shooter, out: &Path, budget: &Budget) -> Result<String, 
         );
         write_sheet(
             &out.join(&file),
-            &format!("{} · -s {spp} -m {bounces} · fireflies / speckles", builtin.name),
+            &format!(
+                "{} · -s {spp} -m {bounces} · fireflies / speckles",
+                builtin.name
+            ),
             &tiles,
             tiles.len(),
         )?;

@@ -31,9 +31,8 @@ pub fn table(results: &[SceneResult]) -> Table {
     // faster, as for every other row.
     let build = |r: &SceneResult, all: bool| match (r.build(&COMPARED[0]), r.build(&COMPARED[1])) {
         (Some(n), Some(e)) => {
-            let pick = |b: &BuildRow| {
-                Measured::seconds(if all { &b.all_threads } else { &b.one_thread })
-            };
+            let pick =
+                |b: &BuildRow| Measured::seconds(if all { &b.all_threads } else { &b.one_thread });
             let (tn, te) = (pick(n), pick(e));
             let slower = |b: &BuildRow| b.all_threads.median > b.one_thread.median;
             Cell::ratio_of(te.median / tn.median, &[tn, te])
@@ -145,7 +144,10 @@ pub fn verdict(results: &[SceneResult], table: &Table) -> String {
         );
     }
     if !small.is_empty() {
-        let names: Vec<String> = small.iter().map(|r| format!("{}-primitive", r.primitives)).collect();
+        let names: Vec<String> = small
+            .iter()
+            .map(|r| format!("{}-primitive", r.primitives))
+            .collect();
         text += &format!(
             "On the {} scene{} it is {}. ",
             names.join(" and "),

@@ -82,7 +82,11 @@ fn large_meshes_get_leaves_of_two_blocks_by_default() {
         assert_eq!(n >= LARGE_TREE, cap == 8, "{n} triangles");
         let bvh = NativeBvh::build(&scene, &NativeOptions::default()).expect("builds");
         let largest = check_invariants(&format!("{n} triangles"), &bvh, &scene, cap);
-        assert!(largest > cap / 2, "{n} triangles: no leaf above {}", cap / 2);
+        assert!(
+            largest > cap / 2,
+            "{n} triangles: no leaf above {}",
+            cap / 2
+        );
         assert!(bvh.stats().details.contains(&format!("max leaf {cap}")));
     }
 }

@@ -86,7 +86,10 @@ fn the_default_scene_renders_converged_and_says_how() {
         let o = hybrid(&all, &dir);
         assert!(o.status.success(), "{}", text(&o));
         let img = image::open(dir.join(out)).expect("written").to_rgb8();
-        (String::from_utf8_lossy(&o.stdout).to_string(), img.into_raw())
+        (
+            String::from_utf8_lossy(&o.stdout).to_string(),
+            img.into_raw(),
+        )
     };
     let rms = |a: &[u8], b: &[u8]| {
         (a.iter()
@@ -105,12 +108,18 @@ fn the_default_scene_renders_converged_and_says_how() {
     let (_, preset1) = run(&["--seed", "1"], "p1.png");
     // A given option is kept; the rest of the preset still applies.
     let (said, few0) = run(&["-s", "2"], "f0.png");
-    assert!(said.contains("-m 8 --rr 0.8") && !said.contains("-s 256"), "{said}");
+    assert!(
+        said.contains("-m 8 --rr 0.8") && !said.contains("-s 256"),
+        "{said}"
+    );
     assert!(said.contains("at 2 spp"), "{said}");
     let (_, few1) = run(&["-s", "2", "--seed", "1"], "f1.png");
 
     let (said, course0) = run(&[file], "c0.png");
-    assert!(!said.contains("converged"), "a scene file took the preset: {said}");
+    assert!(
+        !said.contains("converged"),
+        "a scene file took the preset: {said}"
+    );
     assert!(said.contains("at 1 spp"), "{said}");
     let (preset, few) = (rms(&preset0, &preset1), rms(&few0, &few1));
     println!("8-bit RMS between seeds: preset {preset:.2}, the preset at 2 spp {few:.2}");

@@ -660,5 +660,8 @@ fn progress_counts_the_samples_taken() {
     let taken: u64 = out.film.samples.iter().map(|&n| u64::from(n)).sum();
     assert_eq!(count.1.load(Ordering::Relaxed), 18, "one report per row");
     assert_eq!(count.0.load(Ordering::Relaxed), taken);
-    assert!(taken < 24 * 18 * 64, "adaptive sampling stopped no pixel early");
+    assert!(
+        taken < 24 * 18 * 64,
+        "adaptive sampling stopped no pixel early"
+    );
 }

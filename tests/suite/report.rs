@@ -40,7 +40,10 @@ fn quick_report_writes_every_section_and_the_headline_figures() {
         md.find(verdict) < md.find("## Headline"),
         "the verdict does not come before the headline"
     );
-    assert!(verdict.contains("greater than 1 means native is faster"), "{verdict}");
+    assert!(
+        verdict.contains("greater than 1 means native is faster"),
+        "{verdict}"
+    );
     let json: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).unwrap())
             .expect("valid JSON");
@@ -84,7 +87,11 @@ fn quick_report_writes_every_section_and_the_headline_figures() {
         .iter()
         .enumerate()
         .filter(|(_, s)| s["primitives"].as_u64().unwrap() >= 10_000)
-        .map(|(i, _)| row("camera rays, 1 thread")[&format!("scene_{i}")].as_f64().unwrap())
+        .map(|(i, _)| {
+            row("camera rays, 1 thread")[&format!("scene_{i}")]
+                .as_f64()
+                .unwrap()
+        })
         .collect();
     let lo = camera.iter().copied().fold(f64::INFINITY, f64::min);
     assert!(
@@ -93,7 +100,9 @@ fn quick_report_writes_every_section_and_the_headline_figures() {
     );
     assert_eq!(json["verdict"].as_str(), Some(verdict.trim()));
     // Adaptive against uniform: one row per scene, each with a winner.
-    let adaptive = json["adaptive_vs_uniform"].as_array().expect("adaptive rows");
+    let adaptive = json["adaptive_vs_uniform"]
+        .as_array()
+        .expect("adaptive rows");
     assert_eq!(adaptive.len(), 3);
     for r in adaptive {
         positive(&r["advantage"], "adaptive advantage");

@@ -105,11 +105,16 @@ fn a_series_of_the_default_scene_takes_its_converged_settings() {
     let out = String::from_utf8_lossy(&o.stdout);
     assert!(o.status.success(), "{out}");
     assert!(out.contains("converged settings: -m 8 --rr 0.8"), "{out}");
-    assert!(!out.contains("-s 256"), "the varied -s was overridden: {out}");
+    assert!(
+        !out.contains("-s 256"),
+        "the varied -s was overridden: {out}"
+    );
     // A scene file keeps the course's defaults: no preset.
     let file = concat!(env!("CARGO_MANIFEST_DIR"), "/dae/cornell.dae");
     let o = crate::common::hybrid(
-        &["series", "--vary", "s=1,2", "-r", "16", "12", "-f", "q.png", file],
+        &[
+            "series", "--vary", "s=1,2", "-r", "16", "12", "-f", "q.png", file,
+        ],
         &dir,
     );
     let out = String::from_utf8_lossy(&o.stdout);
