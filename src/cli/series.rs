@@ -288,12 +288,10 @@ pub fn run(args: &SeriesArgs, raw: &[String]) -> Result<(), String> {
         .unwrap_or_default();
     if !preset.is_empty() {
         say!("series: the default scene with converged settings: {preset}");
-        fixed = [fixed.as_str(), preset.as_str()]
-            .iter()
-            .filter(|s| !s.is_empty())
-            .copied()
-            .collect::<Vec<_>>()
-            .join(" ");
+        if !fixed.is_empty() {
+            fixed.push(' ');
+        }
+        fixed += &preset;
     }
     let title = format!(
         "{scene_name} · {} · varying {}",

@@ -101,6 +101,12 @@ impl Film {
         write_files(&[(path, self.file(path, map)?)])
     }
 
+    /// Mean camera samples per pixel over the pixels that took any.
+    pub fn mean_samples(&self) -> f64 {
+        let covered = self.samples.iter().filter(|&&n| n > 0).count().max(1);
+        self.samples.iter().map(|&n| n as f64).sum::<f64>() / covered as f64
+    }
+
     /// The sample-rate image of adaptive sampling (PNG), see
     /// [`Film::rate_image`].
     pub fn rate_file(&self) -> ImageFile<'_> {

@@ -123,8 +123,7 @@ impl RenderOutput {
     }
 
     pub fn mean_samples(&self) -> f64 {
-        let covered = self.film.samples.iter().filter(|&&n| n > 0).count().max(1);
-        self.film.samples.iter().map(|&n| n as f64).sum::<f64>() / covered as f64
+        self.film.mean_samples()
     }
 }
 
@@ -147,10 +146,7 @@ impl Progress for Silent {
 /// fixed scattering (the image does not depend on it, only the progress
 /// estimate does).
 fn scattered(row: u32) -> u64 {
-    let mut z = u64::from(row).wrapping_add(0x9e37_79b9_7f4a_7c15);
-    z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-    z ^ (z >> 31)
+    sampling::mix(u64::from(row))
 }
 
 /// Renders `scene` through `accel`.

@@ -8,16 +8,16 @@ use std::path::Path;
 
 use super::budget::{Budget, SERIES_SCENE};
 use super::error::rmse;
-use super::load;
-use super::measure::time_repeats;
+use super::measure::Timing;
 use super::table::{Cell, Table};
+use super::{load, load_builtin};
 use crate::accel::{Accel, BackendConfig};
 use crate::render::film::Film;
 use crate::render::integrator::{PathSettings, Shading};
 use crate::render::sampling::luminance;
 use crate::render::{render, Adaptive, RenderSettings, Silent};
 use crate::scene::builtin::{CORNELL, GLOSSY};
-use crate::scene::{NormalMode, Scene};
+use crate::scene::Scene;
 
 /// Bounces of every render of the study.
 const MAX_BOUNCES: u32 = 5;
@@ -66,14 +66,10 @@ pub struct AdaptiveStudy {
 pub fn measure(dir: &Path, budget: &Budget, threads: usize) -> Result<AdaptiveStudy, String> {
     let (resolution, reference_spp, batch, tolerance, cap) = budget.adaptive_study;
     let adaptive = Adaptive { batch, tolerance };
-    let builtin = |b: crate::scene::builtin::Builtin| -> Result<(String, Scene), String> {
-        let scene = b.load(NormalMode::Smooth).map_err(|e| e.to_string())?;
-        Ok((b.name.to_string(), scene))
-    };
     let scenes = [
-        builtin(CORNELL)?,
-        builtin(GLOSSY)?,
-        (SERIES_SCENE.to_string(), load(dir, SERIES_SCENE)?),
+        (CORNELL.name, load_builtin(CORNELL)?),
+        (GLOSSY.name, load_builtin(GLOSSY)?),
+        (SERIES_SCENE, load(dir, SERIES_SCENE)?),
     ];
     let mut rows = Vec::new();
     for (name, scene) in &scenes {
@@ -96,7 +92,7 @@ pub fn measure(dir: &Path, budget: &Budget, threads: usize) -> Result<AdaptiveSt
         let reference = render(scene, &accel, &settings(reference_spp, 777, None), &Silent).film;
         let (a_seconds, a_film) = timed(scene, &accel, &settings(cap, 1, Some(adaptive)), budget);
         let pixels = a_film.samples.len() as f64;
-        let mean = a_film.samples.iter().map(|&n| n as f64).sum::<f64>() / pixels;
+        let mean = a_film.mean_samples();
         let share = |f: &dyn Fn(u32) -> bool| {
             a_film.samples.iter().filter(|&&n| f(n)).count() as f64 / pixels
         };
@@ -118,7 +114,7 @@ pub fn measure(dir: &Path, budget: &Budget, threads: usize) -> Result<AdaptiveSt
         let uniform_spp = mean.round().max(1.0) as u32;
         let (u_seconds, u_film) = timed(scene, &accel, &settings(uniform_spp, 1, None), budget);
         rows.push(AdaptiveRow {
-            scene: name.clone(),
+            scene: name.to_string(),
             adaptive_seconds: a_seconds,
             adaptive_rmse: rmse(&a_film, &reference),
             adaptive_spp: mean,
@@ -144,11 +140,14 @@ pub fn measure(dir: &Path, budget: &Budget, threads: usize) -> Result<AdaptiveSt
     })
 }
 
-/// The median time of a few renders, and the film (the same every time).
+/// The median time of a few renders after a first, warm-up one, and that
+/// first render's film (the same every time).
 fn timed<A: Accel>(scene: &Scene, accel: &A, s: &RenderSettings, budget: &Budget) -> (f64, Film) {
     let film = render(scene, accel, s, &Silent).film;
-    let t = time_repeats(budget.repeats.min(3), || render(scene, accel, s, &Silent));
-    (t.median, film)
+    let seconds = (0..budget.repeats.min(3))
+        .map(|_| render(scene, accel, s, &Silent).seconds)
+        .collect();
+    (Timing::from_samples(seconds).median, film)
 }
 
 pub fn table(study: &AdaptiveStudy) -> Table {

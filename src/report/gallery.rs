@@ -10,14 +10,14 @@ use image::RgbImage;
 use super::budget::{Budget, NORMALS_SCENES, SAMPLES_SCENE, SERIES_SCENE};
 use super::error::ESTIMATORS;
 use super::fireflies::film_fireflies;
-use super::load;
 use super::sheet::write_sheet;
+use super::{load, load_builtin};
 use crate::accel::BackendConfig;
 use crate::render::film::{Film, ToneMap};
 use crate::render::integrator::{PathSettings, Shading};
 use crate::render::{render, Adaptive, RenderSettings, Silent};
-use crate::scene::builtin::{Builtin, CORNELL, GLOSSY};
-use crate::scene::{NormalMode, Scene};
+use crate::scene::builtin::{CORNELL, GLOSSY};
+use crate::scene::Scene;
 
 struct Shooter {
     width: u32,
@@ -192,7 +192,7 @@ pub fn section(dir: &Path, out: &Path, budget: &Budget, threads: usize) -> Resul
             Shading::Path(path(5, 1)),
             Some(Adaptive { batch, tolerance }),
         )?;
-        let mean = film.samples.iter().map(|&n| n as f64).sum::<f64>() / film.samples.len() as f64;
+        let mean = film.mean_samples();
         mean_spp.push(mean);
         adaptive.push((image(&film, ToneMap::Reference), scene_name(name)));
         adaptive.push((film.rate_image(), format!("rate · {mean:.0} spp mean")));
@@ -265,8 +265,4 @@ fn estimators(shooter: &Shooter, out: &Path, budget: &Budget) -> Result<String, 
         );
     }
     Ok(md)
-}
-
-fn load_builtin(builtin: Builtin) -> Result<Scene, String> {
-    builtin.load(NormalMode::Smooth).map_err(|e| e.to_string())
 }

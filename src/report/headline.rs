@@ -120,17 +120,22 @@ pub fn verdict(results: &[SceneResult], table: &Table) -> String {
     let small: Vec<&SceneResult> = results.iter().filter(|r| r.triangles < 10_000).collect();
     let threads = results.first().map_or(1, |r| r.threads);
     let mut text = String::new();
+    // Each measure's range over a group of scenes (every scene has the
+    // same measures in the same order).
     let describe = |group: &[&SceneResult]| -> Vec<String> {
-        let Some(first) = group.first() else {
+        let per_scene: Vec<Vec<(String, f64)>> =
+            group.iter().map(|r| one_thread_ratios(r)).collect();
+        let Some(first) = per_scene.first() else {
             return Vec::new();
         };
-        one_thread_ratios(first)
+        first
             .iter()
             .enumerate()
             .map(|(i, (label, _))| {
-                let values: Vec<f64> = group
+                let values: Vec<f64> = per_scene
                     .iter()
-                    .filter_map(|r| one_thread_ratios(r).get(i).map(|m| m.1))
+                    .filter_map(|s| s.get(i))
+                    .map(|m| m.1)
                     .collect();
                 format!("{} on {label}", range(&values))
             })

@@ -32,6 +32,7 @@ use serde_json::json;
 
 use self::budget::{Budget, SCENES};
 use crate::accel::embree::{EmbreeAccel, EmbreeOptions};
+use crate::scene::builtin::Builtin;
 use crate::scene::{collada, NormalMode, Scene};
 
 /// What to run and where to write it.
@@ -49,6 +50,11 @@ pub struct ReportOptions {
 /// Loads a shared scene of the report.
 pub(crate) fn load(dir: &Path, rel: &str) -> Result<Scene, String> {
     collada::load(&dir.join(rel), NormalMode::Smooth).map_err(|e| e.to_string())
+}
+
+/// Loads one of the project's own scenes.
+pub(crate) fn load_builtin(builtin: Builtin) -> Result<Scene, String> {
+    builtin.load(NormalMode::Smooth).map_err(|e| e.to_string())
 }
 
 fn threads_or_all(threads: usize) -> usize {
