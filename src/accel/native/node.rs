@@ -87,20 +87,21 @@ impl Node8 {
             let d = b.extent();
             d.x * d.y + d.y * d.z + d.z * d.x
         };
-        let mut sorted = [(EMPTY, Bounds::EMPTY, 0.0f32); WIDTH];
-        for (slot, &(r, b)) in sorted.iter_mut().zip(children) {
-            *slot = (r, b, area(&b));
-        }
         let used = children.len();
-        insertion_sort(&mut sorted[..used], |a, b| a.2 > b.2);
-        let centres: [Vec3; WIDTH] = std::array::from_fn(|i| sorted[i].1.center());
+        let mut areas = [f32::NEG_INFINITY; WIDTH];
+        for (a, (_, b)) in areas.iter_mut().zip(children) {
+            *a = area(b);
+        }
         let mut node = Node8::UNUSED;
-        for (i, (r, b, _)) in sorted[..used].iter().enumerate() {
-            node.child[i] = *r;
+        let mut centres = [Vec3::ZERO; WIDTH];
+        for (i, &c) in descending(&areas)[..used].iter().enumerate() {
+            let (r, b) = children[c];
+            node.child[i] = r;
             for axis in 0..3 {
                 node.planes[2 * axis][i] = b.min[axis];
                 node.planes[2 * axis + 1][i] = b.max[axis];
             }
+            centres[i] = b.center();
         }
         // The octants with a negative x direction; each opposite octant's
         // order is the same one reversed (unused slots, which no ray
@@ -114,15 +115,14 @@ impl Node8 {
                 if octant & 2 != 0 { 1.0 } else { -1.0 },
                 if octant & 4 != 0 { 1.0 } else { -1.0 },
             );
-            // (key, slot), farthest (largest key) first; unused slots last.
-            let mut places: [(f32, u32); WIDTH] =
-                std::array::from_fn(|i| (f32::NEG_INFINITY, i as u32));
-            for (place, centre) in places.iter_mut().zip(&centres[..used]) {
-                place.0 = centre.dot(sign);
+            // Farthest (largest key) first; unused slots last.
+            let mut keys = [f32::NEG_INFINITY; WIDTH];
+            for (key, centre) in keys.iter_mut().zip(&centres[..used]) {
+                *key = centre.dot(sign);
             }
-            insertion_sort(&mut places[..used], |a, b| a.0 > b.0);
+            let places = descending(&keys);
             let opposite = octant ^ 7;
-            for (place, &(_, child)) in places.iter().enumerate() {
+            for (place, &child) in places.iter().enumerate() {
                 node.order[place] |= (child as u32) << (3 * octant);
                 node.order[WIDTH - 1 - place] |= (child as u32) << (3 * opposite);
             }
@@ -166,18 +166,20 @@ impl Node8 {
     }
 }
 
-/// Stable insertion sort of at most [`WIDTH`] items, `before(a, b)` when
-/// `a` goes first: for eight items, far cheaper than the general sorts.
-fn insertion_sort<T: Copy>(items: &mut [T], before: impl Fn(&T, &T) -> bool) {
-    for i in 1..items.len() {
-        let item = items[i];
-        let mut j = i;
-        while j > 0 && before(&item, &items[j - 1]) {
-            items[j] = items[j - 1];
-            j -= 1;
+/// The slots in decreasing order of `keys` (`f32::total_cmp`, so any
+/// key, NaN too, has one place), equal keys in slot order as a stable sort
+/// gives: a slot's place is the number of keys that go before it, counted
+/// without branches (a sort of eight mispredicts).
+fn descending(keys: &[f32; WIDTH]) -> [usize; WIDTH] {
+    let mut order = [0; WIDTH];
+    for i in 0..WIDTH {
+        let mut place = 0;
+        for j in 0..WIDTH {
+            place += keys[j].total_cmp(&keys[i]).then(i.cmp(&j)).is_gt() as usize;
         }
-        items[j] = item;
+        order[place] = i;
     }
+    order
 }
 
 /// For every 8-bit mask, the lanes whose bit is set, in increasing order,
@@ -248,6 +250,23 @@ mod tests {
         for octant in [0b001, 0b011, 0b101, 0b111] {
             assert_eq!(refs(octant), vec![2, 1, 0], "octant {octant:03b}");
             assert_eq!(refs(octant ^ 1), vec![0, 1, 2], "octant {:03b}", octant ^ 1);
+        }
+    }
+
+    #[test]
+    fn descending_is_a_stable_sort_of_any_keys() {
+        let mut state = 7u64;
+        let mut next = || {
+            state = crate::render::sampling::mix(state);
+            state
+        };
+        for _ in 0..2000 {
+            // Few distinct values, so ties are common; NaN and infinities too.
+            let pool = [0.0, -0.0, 1.0, 2.5, -3.0, f32::NAN, f32::INFINITY, f32::NEG_INFINITY];
+            let keys: [f32; WIDTH] = std::array::from_fn(|_| pool[(next() % 8) as usize]);
+            let mut expected: Vec<usize> = (0..WIDTH).collect();
+            expected.sort_by(|&a, &b| keys[b].total_cmp(&keys[a]));
+            assert_eq!(descending(&keys).to_vec(), expected, "keys {keys:?}");
         }
     }
 
