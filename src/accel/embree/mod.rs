@@ -185,6 +185,7 @@ impl EmbreeAccel<'_> {
     }
 
     /// Embree's answer in the trait's conventions.
+    #[inline]
     fn to_hit(&self, h: &sys::RawHit) -> Hit {
         let ng = Vec3::from(h.ng);
         if h.geometry == self.sphere_geometry {

@@ -454,6 +454,7 @@ fn context_with(flags: raw::RTCIntersectContextFlags) -> raw::RTCIntersectContex
 
 impl Scene<'_> {
     /// Closest hit of one ray (`rtcIntersect1`).
+    #[inline]
     pub fn intersect(
         &self,
         origin: [f32; 3],
@@ -543,6 +544,7 @@ impl Scene<'_> {
     }
 
     /// Whether anything lies on the segment (`rtcOccluded1`).
+    #[inline]
     pub fn occluded(&self, origin: [f32; 3], dir: [f32; 3], t_min: f32, t_max: f32) -> bool {
         let mut ray = make_ray(origin, dir, t_min, t_max);
         // SAFETY: as in `intersect`; Embree sets tfar to -inf on a hit.
