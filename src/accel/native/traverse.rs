@@ -30,7 +30,7 @@
 
 use std::mem::MaybeUninit;
 
-use glam::Vec3;
+use glam::{Vec3, Vec3A};
 
 use super::cpu::Avx2;
 #[cfg(target_arch = "x86_64")]
@@ -72,18 +72,14 @@ impl BoxRay {
         // Tiny direction components become 1e-20 of the same sign, so a
         // slab through the origin gives 0 * huge = 0, never 0 * inf, and
         // `o / d` stays finite for any coordinate below 1e18. A ray
-        // parallel to a slab is still never culled while inside it.
-        let safe = |d: f32| {
-            1.0 / if d.abs() < 1e-20 {
-                1e-20f32.copysign(d)
-            } else {
-                d
-            }
-        };
-        let inv_dir = Vec3::new(safe(dir.x), safe(dir.y), safe(dir.z));
-        let negative = (inv_dir.x < 0.0) as u32
-            | ((inv_dir.y < 0.0) as u32) << 1
-            | ((inv_dir.z < 0.0) as u32) << 2;
+        // parallel to a slab is still never culled while inside it. One
+        // vector division, the same per lane as three scalar ones.
+        let d = Vec3A::from(dir);
+        let tiny = Vec3A::splat(1e-20);
+        let safe = Vec3A::select(d.abs().cmplt(tiny), tiny.copysign(d), d);
+        let inv = Vec3A::ONE / safe;
+        let inv_dir = Vec3::from(inv);
+        let negative = inv.cmplt(Vec3A::ZERO).bitmask();
         BoxRay {
             origin,
             inv_dir,
