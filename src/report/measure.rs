@@ -1,6 +1,6 @@
-//! Timing: medians of warmed-up repeats, ray throughput of a backend on a
-//! fixed ray set, single-threaded or on a pool, and the ray sets the report
-//! and the benches measure.
+//! Timing: medians of warmed-up repeats, ray throughput of a backend (or
+//! of two, interleaved) on a fixed ray set, single-threaded or on a pool,
+//! and the ray sets the report and the benches measure.
 
 use std::time::Instant;
 
@@ -94,6 +94,40 @@ pub fn mrays<A: Accel>(
         on_threads(threads, || time_repeats(repeats, run))
     };
     Measured::per_second_millions(rays.len(), &timing)
+}
+
+/// Million rays per second of two backends on the same `rays`, their
+/// repeats interleaved (A B, B A, A B, ...): both see the same machine
+/// state, where back-to-back blocks of repeats let drift in clock speed,
+/// caches or the other core's load land on one backend only.
+pub fn mrays_pair<A: Accel>(
+    accels: [&A; 2],
+    rays: &[Ray],
+    query: Query,
+    threads: usize,
+    repeats: usize,
+) -> [Measured; 2] {
+    let run = |i: usize| trace_all(accels[i], rays, query, threads);
+    let measure = || {
+        for i in 0..2 {
+            std::hint::black_box(run(i));
+        }
+        let mut seconds = [Vec::new(), Vec::new()];
+        for round in 0..repeats.max(1) {
+            let order = if round % 2 == 0 { [0, 1] } else { [1, 0] };
+            for i in order {
+                let start = Instant::now();
+                std::hint::black_box(run(i));
+                seconds[i].push(start.elapsed().as_secs_f64());
+            }
+        }
+        seconds.map(|s| Measured::per_second_millions(rays.len(), &Timing::from_samples(s)))
+    };
+    if threads <= 1 {
+        measure()
+    } else {
+        on_threads(threads, measure)
+    }
 }
 
 /// Runs `f` on a rayon pool of `threads` threads (the global pool when

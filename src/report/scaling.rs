@@ -7,7 +7,7 @@ use std::path::Path;
 use glam::Vec3;
 
 use super::budget::Budget;
-use super::measure::{mrays, time_repeats, Query, Timing};
+use super::measure::{mrays_pair, time_repeats, Query, Timing};
 use super::plot::{loglog, loglog_slope, Series};
 use super::table::{Cell, Measured, Table};
 use crate::accel::config::COMPARED;
@@ -75,7 +75,13 @@ pub fn measure(budget: &Budget) -> Result<Scaling, String> {
             .map(|c| c.build(&scene))
             .collect::<Result<Vec<_>, _>>()
             .map_err(|e| e.to_string())?;
-        let mrays = [0, 1].map(|i| mrays(&backends[i], &set, Query::Closest, 1, repeats));
+        let mrays = mrays_pair(
+            [&backends[0], &backends[1]],
+            &set,
+            Query::Closest,
+            1,
+            repeats,
+        );
         rows.push(ScalingRow {
             triangles: scene.triangle_count(),
             build,

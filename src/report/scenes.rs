@@ -6,7 +6,7 @@ use serde_json::{json, Value};
 
 use super::budget::Budget;
 use super::budget::ALL_BUILDS_UP_TO;
-use super::measure::{mrays, on_threads, ray_sets, time_repeats, Timing};
+use super::measure::{mrays_pair, on_threads, ray_sets, time_repeats, Timing};
 use super::table::{Cell, Flag, Measured, Table};
 use crate::accel::config::{BUILD_VARIANTS, COMPARED};
 use crate::accel::{Accel, AccelStats, Backend, BackendConfig};
@@ -124,7 +124,8 @@ pub fn measure(
         .iter()
         .map(|set| {
             let each = |t: usize| {
-                [0, 1].map(|i| mrays(&backends[i], &set.rays, set.query, t, budget.repeats))
+                let pair = [&backends[0], &backends[1]];
+                mrays_pair(pair, &set.rays, set.query, t, budget.repeats)
             };
             TraceRow {
                 kind: set.kind,
