@@ -262,7 +262,16 @@ mod tests {
         };
         for _ in 0..2000 {
             // Few distinct values, so ties are common; NaN and infinities too.
-            let pool = [0.0, -0.0, 1.0, 2.5, -3.0, f32::NAN, f32::INFINITY, f32::NEG_INFINITY];
+            let pool = [
+                0.0,
+                -0.0,
+                1.0,
+                2.5,
+                -3.0,
+                f32::NAN,
+                f32::INFINITY,
+                f32::NEG_INFINITY,
+            ];
             let keys: [f32; WIDTH] = std::array::from_fn(|_| pool[(next() % 8) as usize]);
             let mut expected: Vec<usize> = (0..WIDTH).collect();
             expected.sort_by(|&a, &b| keys[b].total_cmp(&keys[a]));
