@@ -146,6 +146,12 @@ struct Previous {
     normal: Vec3,
 }
 
+/// The mean of `n` samples of one light group.
+#[inline(always)]
+fn mean(n: u32, mut sample: impl FnMut() -> Vec3) -> Vec3 {
+    (0..n).map(|_| sample()).sum::<Vec3>() / n as f32
+}
+
 /// The power heuristic weight of a strategy with density `a` (samples
 /// counted in) against one with density `b`.
 #[inline]
@@ -400,29 +406,22 @@ impl<'a, A: Accel> Integrator<'a, A> {
         match s.estimator {
             DirectEstimator::LightSampling | DirectEstimator::Mis => {
                 for light in &self.lights.each {
-                    let mut acc = Vec3::ZERO;
-                    for _ in 0..n {
-                        acc += self.light_sample(v, light, 1.0, weighting, rng, counters);
-                    }
-                    sum += acc / n as f32;
+                    sum += mean(n, || {
+                        self.light_sample(v, light, 1.0, weighting, rng, counters)
+                    });
                 }
                 if !self.lights.emitters.is_empty() {
-                    let mut acc = Vec3::ZERO;
-                    for _ in 0..n {
+                    sum += mean(n, || {
                         let (i, pmf) = self.lights.pick_emitter(rng.next_f32());
                         let light = &self.lights.emitters[i];
-                        acc += self.light_sample(v, light, pmf, weighting, rng, counters);
-                    }
-                    sum += acc / n as f32;
+                        self.light_sample(v, light, pmf, weighting, rng, counters)
+                    });
                 }
                 if let Some(env) = &self.lights.environment {
-                    let mut acc = Vec3::ZERO;
-                    for _ in 0..n {
-                        if let Some(ls) = sample_environment(env, rng) {
-                            acc += self.unoccluded(v, &ls, 1.0, weighting, counters);
-                        }
-                    }
-                    sum += acc / n as f32;
+                    sum += mean(n, || match sample_environment(env, rng) {
+                        Some(ls) => self.unoccluded(v, &ls, 1.0, weighting, counters),
+                        None => Vec3::ZERO,
+                    });
                 }
             }
             DirectEstimator::Hemisphere => {

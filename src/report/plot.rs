@@ -124,7 +124,7 @@ fn log_ticks(lo: f64, hi: f64) -> Vec<f64> {
             return ticks;
         }
     }
-    // A range inside one decade: ten evenly spaced in the log.
+    // A range inside one decade: five evenly spaced in the log.
     (0..=4)
         .map(|k| lo * (hi / lo).powf(k as f64 / 4.0))
         .collect()
