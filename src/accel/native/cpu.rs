@@ -2,23 +2,33 @@
 //!
 //! [`Avx2`] can only be made by [`Avx2::detect`], which asks the CPU at run
 //! time (`is_x86_feature_detected!`). Every function compiled with
-//! `#[target_feature(enable = "avx2,fma")]` takes one, so safe code cannot
-//! reach AVX2 instructions on a CPU without them: the token is the proof
-//! each `unsafe` call site relies on. Without it the portable scalar code
+//! `#[target_feature(enable = "avx2,fma,popcnt,lzcnt,bmi1,bmi2")]` takes
+//! one, so safe code cannot reach those instructions on a CPU without
+//! them: the token is the proof each `unsafe` call site relies on. Every
+//! CPU with AVX2 has the bit-counting ones; the kernels use them for the
+//! hit masks (`count_ones`, `leading_zeros`), which otherwise compile to
+//! multiply and shift sequences. Without it the portable scalar code
 //! runs; nothing is compiled for the build machine only.
 
-/// Proof that this CPU runs AVX2 and FMA instructions.
+/// Proof that this CPU runs AVX2, FMA, POPCNT, LZCNT and BMI1/2
+/// instructions.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Avx2 {
     _detected: (),
 }
 
 impl Avx2 {
-    /// `Some` when the CPU has AVX2 and FMA.
+    /// `Some` when the CPU has all of them.
     pub fn detect() -> Option<Avx2> {
         #[cfg(target_arch = "x86_64")]
         {
-            if is_x86_feature_detected!("avx2") && is_x86_feature_detected!("fma") {
+            if is_x86_feature_detected!("avx2")
+                && is_x86_feature_detected!("fma")
+                && is_x86_feature_detected!("popcnt")
+                && is_x86_feature_detected!("lzcnt")
+                && is_x86_feature_detected!("bmi1")
+                && is_x86_feature_detected!("bmi2")
+            {
                 return Some(Avx2 { _detected: () });
             }
         }

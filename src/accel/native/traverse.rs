@@ -145,7 +145,7 @@ pub fn closest<L: Leaves>(
     }
     #[cfg(target_arch = "x86_64")]
     if let Some(cpu) = cpu {
-        // SAFETY: the token proves the CPU has AVX2 and FMA.
+        // SAFETY: the token proves the CPU has the kernels' features.
         return unsafe {
             if test == BoxTest::Fast && ray.fast_test_fits() {
                 avx2::closest::<false, L>(cpu, nodes, ray, t_max, leaves, work)
@@ -174,7 +174,7 @@ pub fn any<L: Leaves>(
     }
     #[cfg(target_arch = "x86_64")]
     if let Some(cpu) = cpu {
-        // SAFETY: the token proves the CPU has AVX2 and FMA.
+        // SAFETY: the token proves the CPU has the kernels' features.
         return unsafe {
             if test == BoxTest::Fast && ray.fast_test_fits() {
                 avx2::any::<false, L>(cpu, nodes, ray, t_max, leaves, work)
@@ -386,7 +386,7 @@ mod avx2 {
         shift: __m128i,
     }
 
-    #[target_feature(enable = "avx2,fma")]
+    #[target_feature(enable = "avx2,fma,popcnt,lzcnt,bmi1,bmi2")]
     #[inline]
     fn lanes<const ROBUST: bool>(ray: &BoxRay) -> Lanes {
         let o = ray.origin.to_array();
@@ -415,7 +415,7 @@ mod avx2 {
     }
 
     /// The 8-wide slab test: entry distances and the hit lanes.
-    #[target_feature(enable = "avx2,fma")]
+    #[target_feature(enable = "avx2,fma,popcnt,lzcnt,bmi1,bmi2")]
     #[inline]
     unsafe fn slab<const ROBUST: bool>(node: &Node8, l: &Lanes, t_max: __m256) -> (__m256, __m256) {
         let plane = |row: usize| _mm256_load_ps(node.planes[row].as_ptr());
@@ -451,7 +451,7 @@ mod avx2 {
 
     /// Asks for the four cache lines of `r`'s node or first leaf item
     /// (prefetches never fault, whatever the address).
-    #[target_feature(enable = "avx2,fma")]
+    #[target_feature(enable = "avx2,fma,popcnt,lzcnt,bmi1,bmi2")]
     #[inline]
     fn prefetch<L: Leaves>(nodes: &[Node8], leaves: &L, r: ChildRef) {
         let p = if is_leaf(r) {
@@ -467,7 +467,7 @@ mod avx2 {
     /// Closest-hit's push: hit children in the octant's order; the nearest
     /// is returned, the others and their entry distances written to the
     /// stack at `*top`, which advances past them.
-    #[target_feature(enable = "avx2,fma")]
+    #[target_feature(enable = "avx2,fma,popcnt,lzcnt,bmi1,bmi2")]
     #[inline]
     unsafe fn push(
         node: &Node8,
@@ -497,7 +497,7 @@ mod avx2 {
     /// Any-hit's push: no order to compute, the hit children in slot
     /// order (decreasing size); returns the last, the smallest, and writes
     /// the others to the stack at `*top`.
-    #[target_feature(enable = "avx2,fma")]
+    #[target_feature(enable = "avx2,fma,popcnt,lzcnt,bmi1,bmi2")]
     #[inline]
     unsafe fn push_any(node: &Node8, mask: u32, refs: *mut ChildRef, top: &mut usize) -> ChildRef {
         let pack = _mm256_loadu_si256(COMPRESS[mask as usize].as_ptr().cast());
@@ -511,9 +511,9 @@ mod avx2 {
     }
 
     /// # Safety
-    /// Needs AVX2 and FMA (the token proves it); `nodes` is a tree built
+    /// Needs the token's CPU features (AVX2, FMA, bit counting); `nodes` is a tree built
     /// by `build.rs` (node 0 the root, depth at most [`MAX_DEPTH`]).
-    #[target_feature(enable = "avx2,fma")]
+    #[target_feature(enable = "avx2,fma,popcnt,lzcnt,bmi1,bmi2")]
     pub unsafe fn closest<const ROBUST: bool, L: Leaves>(
         _cpu: Avx2,
         nodes: &[Node8],
@@ -582,7 +582,7 @@ mod avx2 {
 
     /// # Safety
     /// As [`closest`].
-    #[target_feature(enable = "avx2,fma")]
+    #[target_feature(enable = "avx2,fma,popcnt,lzcnt,bmi1,bmi2")]
     pub unsafe fn any<const ROBUST: bool, L: Leaves>(
         _cpu: Avx2,
         nodes: &[Node8],
