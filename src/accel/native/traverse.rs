@@ -511,8 +511,9 @@ mod avx2 {
     }
 
     /// # Safety
-    /// Needs the token's CPU features (AVX2, FMA, bit counting); `nodes` is a tree built
-    /// by `build.rs` (node 0 the root, depth at most [`MAX_DEPTH`]).
+    /// Needs the token's CPU features (AVX2, FMA, bit counting); `nodes`
+    /// is a tree built by `build.rs` (node 0 the root, depth at most
+    /// [`MAX_DEPTH`]).
     #[target_feature(enable = "avx2,fma,popcnt,lzcnt,bmi1,bmi2")]
     pub unsafe fn closest<const ROBUST: bool, L: Leaves>(
         _cpu: Avx2,
