@@ -3,7 +3,7 @@
 //! ray stops. The renderer and the parity suite both build their rays here,
 //! so parity always tests the rays that are rendered.
 
-use glam::Vec3;
+use glam::{Vec3, Vec3A};
 
 /// A ray `origin + t * dir` for `t` in `[t_min, t_max]`.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -103,16 +103,67 @@ impl Ray {
     /// Rays with NaN or infinite components, components beyond
     /// [`COORDINATE_LIMIT`], a zero direction or an empty interval are
     /// reported as misses by every backend, never traced.
+    ///
+    /// Every ray pays for this check, so the coordinates take three vector
+    /// comparisons: `<=` is false for NaN, so the one against the limit
+    /// also rejects NaN and infinities; `t_min <= t_max` rejects a NaN at
+    /// either end.
     #[inline]
     pub fn is_traceable(&self) -> bool {
-        // `max_element` skips NaN, hence the finiteness tests.
-        self.origin.is_finite()
-            && self.dir.is_finite()
-            && self.origin.abs().max_element() <= COORDINATE_LIMIT
-            && self.dir.abs().max_element() <= COORDINATE_LIMIT
-            && self.dir != Vec3::ZERO
-            && self.t_min >= 0.0
-            && self.t_min <= self.t_max
-            && !self.t_max.is_nan()
+        let limit = Vec3A::splat(COORDINATE_LIMIT);
+        let origin = Vec3A::from(self.origin).abs();
+        let dir = Vec3A::from(self.dir).abs();
+        (origin.cmple(limit) & dir.cmple(limit)).all()
+            & dir.cmpgt(Vec3A::ZERO).any()
+            & (self.t_min >= 0.0)
+            & (self.t_min <= self.t_max)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn traceable_rejects_each_bad_field_alone() {
+        let good = Ray::new(Vec3::new(1.0, -2.0, 3.0), Vec3::new(0.0, 0.0, -1.0));
+        assert!(good.is_traceable());
+        let with = |f: &dyn Fn(&mut Ray)| {
+            let mut r = good;
+            f(&mut r);
+            r.is_traceable()
+        };
+        let far = COORDINATE_LIMIT * 1.5;
+        for (what, bad) in [
+            ("NaN", f32::NAN),
+            ("infinity", f32::INFINITY),
+            ("-infinity", f32::NEG_INFINITY),
+            ("beyond the limit", far),
+            ("beyond minus the limit", -far),
+        ] {
+            for axis in 0..3 {
+                assert!(!with(&|r| r.origin[axis] = bad), "origin {axis} {what}");
+                assert!(!with(&|r| r.dir[axis] = bad), "dir {axis} {what}");
+            }
+        }
+        assert!(!with(&|r| r.dir = Vec3::ZERO), "zero direction");
+        assert!(!with(&|r| r.dir = -Vec3::ZERO), "negative zero direction");
+        assert!(
+            with(&|r| r.dir = Vec3::new(0.0, 1e-30, 0.0)),
+            "tiny direction"
+        );
+        assert!(
+            with(&|r| r.origin = Vec3::splat(-COORDINATE_LIMIT)),
+            "at the limit"
+        );
+        assert!(!with(&|r| r.t_min = -1e-9), "negative t_min");
+        assert!(!with(&|r| r.t_min = f32::NAN), "NaN t_min");
+        assert!(!with(&|r| r.t_max = f32::NAN), "NaN t_max");
+        assert!(
+            !with(&|r| (r.t_min, r.t_max) = (2.0, 1.0)),
+            "empty interval"
+        );
+        assert!(with(&|r| (r.t_min, r.t_max) = (1.0, 1.0)), "one point");
+        assert!(with(&|r| r.t_max = f32::INFINITY), "infinite t_max");
     }
 }

@@ -23,11 +23,17 @@ use crate::accel::ray::{gamma, SpawnPoint};
 use crate::accel::{Hit, Ray};
 
 /// `v` scaled to unit length, or zero for a zero or non-finite `v`. Safe
-/// for any finite `v`: it is divided by its largest component first, so a
-/// cross product of long edges (1e12 squared and squared again overflows
-/// `f32`) still has a direction.
+/// for any finite `v`: when its squared length overflows or underflows
+/// (a cross product of long edges, 1e12 squared and squared again), it is
+/// divided by its largest component first and still has a direction.
+/// Every hit pays for this, so the common case is one square root and one
+/// division.
 #[inline]
 pub fn unit(v: Vec3) -> Vec3 {
+    let squared = v.length_squared();
+    if squared > f32::MIN_POSITIVE && squared < f32::INFINITY {
+        return v / squared.sqrt();
+    }
     let m = v.abs().max_element();
     if !(m > 0.0) || !m.is_finite() {
         return Vec3::ZERO;
@@ -504,5 +510,38 @@ impl Scene {
                 NormalMode::Flat => "flat",
             }
         )
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn unit_keeps_the_direction_of_any_finite_vector() {
+        let dirs = [
+            Vec3::new(3.0, -4.0, 12.0),
+            Vec3::new(1e-3, 2.0, -0.5),
+            Vec3::X,
+        ];
+        for d in dirs {
+            let want = d.normalize();
+            // Ordinary, overflowing when squared, underflowing when squared.
+            for scale in [1.0, 1e25, 1e-25, 3e38 / d.abs().max_element()] {
+                let u = unit(d * scale);
+                assert!(
+                    (u - want).abs().max_element() < 1e-6,
+                    "unit({:?}) = {u:?}, want {want:?}",
+                    d * scale
+                );
+            }
+        }
+        for bad in [
+            Vec3::ZERO,
+            Vec3::new(f32::NAN, 1.0, 0.0),
+            Vec3::new(0.0, f32::INFINITY, 1.0),
+        ] {
+            assert_eq!(unit(bad), Vec3::ZERO, "unit({bad:?})");
+        }
     }
 }
