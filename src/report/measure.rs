@@ -96,10 +96,28 @@ pub fn mrays<A: Accel>(
     Measured::per_second_millions(rays.len(), &timing)
 }
 
-/// Million rays per second of two backends on the same `rays`, their
-/// repeats interleaved (A B, B A, A B, ...): both see the same machine
+/// Timings of two runs measured together: after one warm-up each, their
+/// repeats interleave (A B, B A, A B, ...), so both see the same machine
 /// state, where back-to-back blocks of repeats let drift in clock speed,
-/// caches or the other core's load land on one backend only.
+/// caches or the other core's load land on one of them only.
+pub fn time_pair<T>(repeats: usize, mut run: impl FnMut(usize) -> T) -> [Timing; 2] {
+    for i in 0..2 {
+        std::hint::black_box(run(i));
+    }
+    let mut seconds = [Vec::new(), Vec::new()];
+    for round in 0..repeats.max(1) {
+        let order = if round % 2 == 0 { [0, 1] } else { [1, 0] };
+        for i in order {
+            let start = Instant::now();
+            std::hint::black_box(run(i));
+            seconds[i].push(start.elapsed().as_secs_f64());
+        }
+    }
+    seconds.map(Timing::from_samples)
+}
+
+/// Million rays per second of two backends on the same `rays`, their
+/// repeats interleaved ([`time_pair`]).
 pub fn mrays_pair<A: Accel>(
     accels: [&A; 2],
     rays: &[Ray],
@@ -107,21 +125,9 @@ pub fn mrays_pair<A: Accel>(
     threads: usize,
     repeats: usize,
 ) -> [Measured; 2] {
-    let run = |i: usize| trace_all(accels[i], rays, query, threads);
     let measure = || {
-        for i in 0..2 {
-            std::hint::black_box(run(i));
-        }
-        let mut seconds = [Vec::new(), Vec::new()];
-        for round in 0..repeats.max(1) {
-            let order = if round % 2 == 0 { [0, 1] } else { [1, 0] };
-            for i in order {
-                let start = Instant::now();
-                std::hint::black_box(run(i));
-                seconds[i].push(start.elapsed().as_secs_f64());
-            }
-        }
-        seconds.map(|s| Measured::per_second_millions(rays.len(), &Timing::from_samples(s)))
+        time_pair(repeats, |i| trace_all(accels[i], rays, query, threads))
+            .map(|t| Measured::per_second_millions(rays.len(), &t))
     };
     if threads <= 1 {
         measure()

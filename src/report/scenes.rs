@@ -6,7 +6,7 @@ use serde_json::{json, Value};
 
 use super::budget::Budget;
 use super::budget::ALL_BUILDS_UP_TO;
-use super::measure::{mrays_pair, on_threads, ray_sets, time_repeats, Timing};
+use super::measure::{mrays_pair, on_threads, ray_sets, time_pair, time_repeats, Timing};
 use super::table::{Cell, Flag, Measured, Table};
 use crate::accel::config::{BUILD_VARIANTS, COMPARED};
 use crate::accel::{Accel, AccelStats, Backend, BackendConfig};
@@ -156,10 +156,10 @@ pub fn measure(
         }),
         ..RenderSettings::default()
     };
-    let frame_seconds = [0, 1].map(|i| {
-        time_repeats(budget.repeats.min(3), || {
-            render(scene, &backends[i], &settings, &Silent)
-        })
+    // Interleaved as the rays are: a frame takes a tenth of a second, so
+    // back-to-back repeats of one backend caught the machine's drift.
+    let frame_seconds = time_pair(budget.repeats, |i| {
+        render(scene, &backends[i], &settings, &Silent)
     });
     Ok(SceneResult {
         size,
