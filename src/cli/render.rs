@@ -185,31 +185,25 @@ impl RenderArgs {
         self.input.scene.is_none() && !self.normals
     }
 
+    /// `given`, else the preset's `value` when the preset applies.
+    fn or_preset<T>(&self, given: Option<T>, value: T) -> Option<T> {
+        given.or_else(|| self.uses_preset().then_some(value))
+    }
+
     /// `-s`: given, the preset's, or the course's 1.
     pub fn samples(&self) -> u32 {
-        match self.samples {
-            Some(n) => n,
-            None if self.uses_preset() => PRESET.samples,
-            None => 1,
-        }
+        self.or_preset(self.samples, PRESET.samples).unwrap_or(1)
     }
 
     /// `-m`: given, the preset's, or the course's 1.
     pub fn max_bounces(&self) -> u32 {
-        match self.max_bounces {
-            Some(n) => n,
-            None if self.uses_preset() => PRESET.max_bounces,
-            None => 1,
-        }
+        self.or_preset(self.max_bounces, PRESET.max_bounces)
+            .unwrap_or(1)
     }
 
     /// `--rr`: given, the preset's, or none.
     pub fn russian_roulette(&self) -> Option<f32> {
-        match self.russian_roulette {
-            Some(p) => Some(p),
-            None if self.uses_preset() => Some(PRESET.russian_roulette),
-            None => None,
-        }
+        self.or_preset(self.russian_roulette, PRESET.russian_roulette)
     }
 
     /// The preset options this run takes, as they would be typed (empty

@@ -93,9 +93,6 @@ pub fn measure(dir: &Path, budget: &Budget, threads: usize) -> Result<AdaptiveSt
         let (a_seconds, a_film) = timed(scene, &accel, &settings(cap, 1, Some(adaptive)), budget);
         let pixels = a_film.samples.len() as f64;
         let mean = a_film.mean_samples();
-        let share = |f: &dyn Fn(u32) -> bool| {
-            a_film.samples.iter().filter(|&&n| f(n)).count() as f64 / pixels
-        };
         let (mut stopped, mut background, mut stopped_sq, mut all_sq) = (0usize, 0usize, 0.0, 0.0);
         for ((n, a), r) in a_film
             .samples
@@ -118,8 +115,8 @@ pub fn measure(dir: &Path, budget: &Budget, threads: usize) -> Result<AdaptiveSt
             adaptive_seconds: a_seconds,
             adaptive_rmse: rmse(&a_film, &reference),
             adaptive_spp: mean,
-            stopped_early: share(&|n| n <= batch),
-            capped: share(&|n| n >= cap),
+            stopped_early: stopped as f64 / pixels,
+            capped: a_film.samples.iter().filter(|&&n| n >= cap).count() as f64 / pixels,
             stopped_background: background as f64 / stopped.max(1) as f64,
             stopped_error: if all_sq > 0.0 {
                 stopped_sq / all_sq

@@ -78,8 +78,8 @@ pub fn table(results: &[SceneResult]) -> Table {
         results
             .iter()
             .map(|r| {
-                let [n, e] = r.frame_seconds.each_ref().map(Measured::seconds);
-                Cell::ratio_of(e.median / n.median, &[n, e])
+                let seconds = r.frame_seconds.each_ref().map(Measured::seconds);
+                Cell::ratio_of(r.frame_ratio(), &seconds)
             })
             .collect(),
     );
@@ -160,10 +160,7 @@ pub fn verdict(results: &[SceneResult], table: &Table) -> String {
             describe(&small).join(", ")
         );
     }
-    let frames: Vec<f64> = results
-        .iter()
-        .map(|r| r.frame_seconds[1].median / r.frame_seconds[0].median)
-        .collect();
+    let frames: Vec<f64> = results.iter().map(SceneResult::frame_ratio).collect();
     if !frames.is_empty() {
         text += &format!(
             "A path-traced frame on {threads} threads renders at {} of Embree's speed. ",

@@ -71,6 +71,12 @@ impl SceneResult {
     pub fn build(&self, config: &BackendConfig) -> Option<&BuildRow> {
         self.builds.iter().find(|b| b.config == *config)
     }
+
+    /// Embree's time per frame over native's (greater than 1: native is
+    /// faster).
+    pub fn frame_ratio(&self) -> f64 {
+        self.frame_seconds[1].median / self.frame_seconds[0].median
+    }
 }
 
 /// Times `config`'s build on `threads` threads (native: the rayon pool;
@@ -262,7 +268,7 @@ pub fn section(results: &[SceneResult]) -> (String, Value) {
             r.threads,
             frame[0],
             frame[1],
-            frame[1] / frame[0],
+            r.frame_ratio(),
         );
         scenes.push(json!({
             "scene": r.scene,

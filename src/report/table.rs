@@ -224,7 +224,11 @@ fn markdown_cell(cell: &Cell) -> String {
             m.median,
             m.min,
             m.max,
-            if m.is_noisy() { " ⚠" } else { "" }
+            if m.is_noisy() {
+                format!(" {}", Flag::Noisy.mark())
+            } else {
+                String::new()
+            }
         ),
         Cell::Flagged(inner, flag) => {
             let text = markdown_cell(inner);

@@ -113,8 +113,8 @@ pub struct NativeBvh {
     sphere_items: Vec<SphereItem>,
     build_ms: f64,
     shape: TreeShape,
-    /// Triangles in the tree (what the default leaf cap was chosen by).
-    triangle_count: usize,
+    /// The triangle tree's largest leaf ([`NativeOptions::leaf_cap`]).
+    leaf_cap: usize,
 }
 
 /// Builds a tree over `boxes`; a SAH tree deeper than the kernels' stacks
@@ -218,7 +218,7 @@ impl NativeBvh {
         let (t, s) = (tri_tree.shape, sphere_tree.shape);
         Ok(NativeBvh {
             options: *options,
-            triangle_count: mesh.len(),
+            leaf_cap: options.leaf_cap(mesh.len()),
             cpu: if options.simd { Avx2::detect() } else { None },
             box_test: match options.triangle {
                 TriangleMode::MollerTrumbore => BoxTest::Fast,
@@ -574,7 +574,7 @@ impl Accel for NativeBvh {
                 "{} triangles, {} build, max leaf {}, 8-wide {} traversal",
                 self.options.triangle.name(),
                 self.options.method.name(),
-                self.options.leaf_cap(self.triangle_count),
+                self.leaf_cap,
                 if self.simd() { "AVX2" } else { "scalar" }
             ),
         }
