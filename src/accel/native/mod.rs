@@ -22,7 +22,7 @@ pub mod triangle;
 
 use std::time::Instant;
 
-use glam::Vec3;
+use glam::{Vec3, Vec3A};
 use rayon::prelude::*;
 
 use self::build::{BuildMethod, BuiltTree, TreeShape};
@@ -30,6 +30,7 @@ use self::cpu::Avx2;
 use self::node::{Node8, MAX_LEAF_FIRST};
 use self::traverse::{BoxRay, BoxTest, Leaves, Work, MAX_DEPTH};
 use self::triangle::{TriangleBlock4, TriangleMode, TriangleTest, Watertight};
+use super::ray::traceable;
 use super::{Accel, AccelError, AccelStats, Hit, Ray, TraceCounters};
 use crate::choice::Choice;
 use crate::scene::{unit, Bounds, Scene};
@@ -272,8 +273,15 @@ impl NativeBvh {
     }
 
     /// Closest triangle and sphere hits; `t_max` shrinks to the hit.
-    fn closest(&self, ray: &Ray, counters: &mut TraceCounters) -> Option<Hit> {
-        let box_ray = BoxRay::new(ray.origin, ray.dir, ray.t_min);
+    /// The closest hit of a traceable `ray`, whose coordinates are
+    /// `vectors` ([`Ray::vectors`], read once by the caller).
+    fn closest(
+        &self,
+        ray: &Ray,
+        vectors: (Vec3A, Vec3A),
+        counters: &mut TraceCounters,
+    ) -> Option<Hit> {
+        let box_ray = BoxRay::new(vectors.0, vectors.1, ray.t_min);
         let mut t_max = ray.t_max;
         let mut work = Work::default();
         let mut hit = None;
@@ -376,8 +384,9 @@ impl NativeBvh {
         traverse::any(nodes, ray, t_max, leaves, self.cpu, self.box_test, work)
     }
 
-    fn any(&self, ray: &Ray, counters: &mut TraceCounters) -> bool {
-        let box_ray = BoxRay::new(ray.origin, ray.dir, ray.t_min);
+    /// Whether anything blocks a traceable `ray`, as [`Self::closest`].
+    fn any(&self, ray: &Ray, vectors: (Vec3A, Vec3A), counters: &mut TraceCounters) -> bool {
+        let box_ray = BoxRay::new(vectors.0, vectors.1, ray.t_min);
         let mut work = Work::default();
         let hit = match &self.triangle_store {
             TriangleStore::Blocks(blocks) => {
@@ -532,18 +541,20 @@ impl Leaves for SphereLeaves<'_> {
 impl Accel for NativeBvh {
     fn closest_hit(&self, ray: &Ray, counters: &mut TraceCounters) -> Option<Hit> {
         counters.rays += 1;
-        if !ray.is_traceable() {
+        let vectors = ray.vectors();
+        if !traceable(vectors.0, vectors.1, ray.t_min, ray.t_max) {
             return None;
         }
-        self.closest(ray, counters)
+        self.closest(ray, vectors, counters)
     }
 
     fn occluded(&self, ray: &Ray, counters: &mut TraceCounters) -> bool {
         counters.rays += 1;
-        if !ray.is_traceable() {
+        let vectors = ray.vectors();
+        if !traceable(vectors.0, vectors.1, ray.t_min, ray.t_max) {
             return false;
         }
-        self.any(ray, counters)
+        self.any(ray, vectors, counters)
     }
 
     fn stats(&self) -> AccelStats {

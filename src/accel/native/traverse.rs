@@ -68,20 +68,20 @@ pub struct BoxRay {
 }
 
 impl BoxRay {
-    pub fn new(origin: Vec3, dir: Vec3, t_min: f32) -> BoxRay {
+    pub fn new(origin: Vec3A, dir: Vec3A, t_min: f32) -> BoxRay {
         // Tiny direction components become 1e-20 of the same sign, so a
         // slab through the origin gives 0 * huge = 0, never 0 * inf, and
         // `o / d` stays finite for any coordinate below 1e18. A ray
         // parallel to a slab is still never culled while inside it. One
         // vector division, the same per lane as three scalar ones.
-        let d = Vec3A::from(dir);
+        let d = dir;
         let tiny = Vec3A::splat(1e-20);
         let safe = Vec3A::select(d.abs().cmplt(tiny), tiny.copysign(d), d);
         let inv = Vec3A::ONE / safe;
         let inv_dir = Vec3::from(inv);
         let negative = inv.cmplt(Vec3A::ZERO).bitmask();
         BoxRay {
-            origin,
+            origin: origin.into(),
             inv_dir,
             t_min,
             negative,
