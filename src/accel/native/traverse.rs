@@ -19,18 +19,24 @@
 //! would enter):
 //! - robust: `(plane - o) * (1 / d)` with the far distance scaled by
 //!   `1 + 2γ(3)` (Ize 2013, "Robust BVH ray traversal", JCGT 2(2));
-//! - fast: one fused multiply-add per plane, `plane * r - c` with per-ray
-//!   constants. With `r = fl(1 / d)` and `c = fl(o r)`, the fused result is
-//!   `(plane - o) r (1 + δ)` minus an absolute error below `|c| u (1 + 2u)`
-//!   (`u = 2^-24`) from rounding `o r`. Near planes therefore subtract
-//!   `c + |c| 2^-22`, and far planes use `r (1 + 2^-20)` and
-//!   `c (1 + 2^-20) - |c| 2^-21`: 16u of relative slack where Ize's form
-//!   needs about 6u, and an absolute margin above the rounding of `c`.
-//!   Rays whose `c` overflows take the robust form.
+//! - fast: one fused multiply-add per plane, `plane * r - c` with
+//!   `r = fl(1 / d)` and per-ray constants that scale `o` before the
+//!   multiplication by `r`, so that each is one multiplication after the
+//!   division (a ray's first box test waits on them). Near planes subtract
+//!   `c = fl(fl(o k) r)`, `k = 1 + 2^-22` where `o r` is positive and
+//!   `1 - 2^-22` where it is negative: whatever the two roundings, `c`
+//!   exceeds `o r` by at least `2u |o r|` (`u = 2^-24`), so near distances
+//!   are only lowered. Far planes use `r (1 + 2^-20)` and the same form
+//!   with `k = 1 + 2^-20 ∓ 2^-21`, which stays more than `5u |o r|` below
+//!   `o r (1 + 2^-20)`. The fused result's own rounding is relative, and
+//!   the far planes' `16u` of slack covers it where Ize's form needs about
+//!   `6u`. Rays whose constants overflow take the robust form. A test
+//!   checks the fast test against the slab test in f64 on boxes that just
+//!   touch random rays.
 
 use std::mem::MaybeUninit;
 
-use glam::{Vec3, Vec3A};
+use glam::Vec3A;
 
 use super::cpu::Avx2;
 #[cfg(target_arch = "x86_64")]
@@ -60,8 +66,11 @@ pub trait Leaves {
 /// A ray prepared for the slab tests.
 #[derive(Clone, Copy, Debug)]
 pub struct BoxRay {
-    origin: Vec3,
-    inv_dir: Vec3,
+    origin: Vec3A,
+    inv_dir: Vec3A,
+    /// The fast test's constants per axis: near `c`, far `r` and far `c`
+    /// (see the module notes).
+    fast: [Vec3A; 3],
     t_min: f32,
     /// `dir < 0` per axis: bit 0 x, bit 1 y, bit 2 z.
     negative: u32,
@@ -74,24 +83,33 @@ impl BoxRay {
         // `o / d` stays finite for any coordinate below 1e18. A ray
         // parallel to a slab is still never culled while inside it. One
         // vector division, the same per lane as three scalar ones.
-        let d = dir;
         let tiny = Vec3A::splat(1e-20);
-        let safe = Vec3A::select(d.abs().cmplt(tiny), tiny.copysign(d), d);
+        let safe = Vec3A::select(dir.abs().cmplt(tiny), tiny.copysign(dir), dir);
         let inv = Vec3A::ONE / safe;
-        let inv_dir = Vec3::from(inv);
-        let negative = inv.cmplt(Vec3A::ZERO).bitmask();
+        // The fast constants scale `o` by factors picked by the sign of
+        // `o r` (a product's sign is exact, even when it underflows), so
+        // they take one multiplication each after the division: a ray's
+        // first box test waits on this.
+        let sign = origin * safe;
+        let near_k = Vec3A::ONE + Vec3A::splat(FAST_NEAR_MARGIN).copysign(sign);
+        let far_k = Vec3A::splat(FAST_FAR_SCALE) - Vec3A::splat(FAST_FAR_MARGIN).copysign(sign);
         BoxRay {
-            origin: origin.into(),
-            inv_dir,
+            origin,
+            inv_dir: inv,
+            fast: [
+                origin * near_k * inv,
+                inv * FAST_FAR_SCALE,
+                origin * far_k * inv,
+            ],
             t_min,
-            negative,
+            negative: inv.cmplt(Vec3A::ZERO).bitmask(),
         }
     }
 
     /// Whether the fast box test's constants are finite for this ray.
     #[inline(always)]
     fn fast_test_fits(&self) -> bool {
-        (self.origin * self.inv_dir * FAST_FAR_SCALE).is_finite()
+        self.fast[0].is_finite() & self.fast[2].is_finite()
     }
 
     /// Octant index of the child orders: bit set for a positive direction.
@@ -389,21 +407,14 @@ mod avx2 {
     #[target_feature(enable = "avx2,fma,popcnt,lzcnt,bmi1,bmi2")]
     #[inline]
     fn lanes<const ROBUST: bool>(ray: &BoxRay) -> Lanes {
-        let o = ray.origin.to_array();
-        let inv = ray.inv_dir.to_array();
-        let splat = |v: [f32; 3]| v.map(|x| _mm256_set1_ps(x));
+        let splat = |v: Vec3A| v.to_array().map(|x| _mm256_set1_ps(x));
         let (near_c, far_r, far_c) = if ROBUST {
-            (o, inv, o)
+            (ray.origin, ray.inv_dir, ray.origin)
         } else {
-            let c = [o[0] * inv[0], o[1] * inv[1], o[2] * inv[2]];
-            (
-                c.map(|c| c + c.abs() * FAST_NEAR_MARGIN),
-                inv.map(|r| r * FAST_FAR_SCALE),
-                c.map(|c| c * FAST_FAR_SCALE - c.abs() * FAST_FAR_MARGIN),
-            )
+            (ray.fast[0], ray.fast[1], ray.fast[2])
         };
         Lanes {
-            near_r: splat(inv),
+            near_r: splat(ray.inv_dir),
             near_c: splat(near_c),
             far_r: splat(far_r),
             far_c: splat(far_c),
@@ -632,5 +643,92 @@ mod avx2 {
             // SAFETY: entries below `top` were written by `push`.
             current = *refs.add(top);
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::render::sampling::Rng;
+    use glam::{DVec3, Vec3};
+
+    /// The fast test of one box as the AVX2 kernel computes it: one fused
+    /// multiply-add per plane, near planes by the octant.
+    fn fast_enters(ray: &BoxRay, lo: Vec3A, hi: Vec3A, t_max: f32) -> bool {
+        let [near_c, far_r, far_c] = ray.fast;
+        let r = ray.inv_dir;
+        let (mut near, mut far) = (ray.t_min, t_max);
+        for a in 0..3 {
+            let (n, f) = if r[a] < 0.0 {
+                (hi[a], lo[a])
+            } else {
+                (lo[a], hi[a])
+            };
+            near = near.max(n.mul_add(r[a], -near_c[a]));
+            far = far.min(f.mul_add(far_r[a], -far_c[a]));
+        }
+        near <= far
+    }
+
+    /// The slab test in f64 on the f32 inputs, with the true `1 / d`.
+    fn exact_enters(o: Vec3A, d: Vec3A, lo: Vec3A, hi: Vec3A, t_max: f32) -> bool {
+        let (o, d) = (DVec3::from(Vec3::from(o)), DVec3::from(Vec3::from(d)));
+        let (lo, hi) = (DVec3::from(Vec3::from(lo)), DVec3::from(Vec3::from(hi)));
+        let (a, b) = ((lo - o) / d, (hi - o) / d);
+        let near = a.min(b).max_element().max(0.0);
+        let far = a.max(b).min_element().min(f64::from(t_max));
+        near <= far
+    }
+
+    #[test]
+    fn the_fast_box_test_never_culls_a_box_the_ray_touches() {
+        let mut rng = Rng::new(11, 4);
+        let mut touched = 0;
+        for i in 0..400_000 {
+            let scale = 10f32.powi(i % 10 - 3);
+            let mut f = |s: f32| (2.0 * rng.next_f32() - 1.0) * s;
+            let o = Vec3A::new(f(scale), f(scale), f(scale));
+            // Some directions nearly parallel to an axis or a plane.
+            let mut d = Vec3A::new(f(1.0), f(1.0), f(1.0));
+            if i % 3 == 0 {
+                d[i as usize % 3] *= 1e-6;
+            }
+            if d.cmpeq(Vec3A::ZERO).any() {
+                continue;
+            }
+            let t_max = if i % 2 == 0 {
+                f32::INFINITY
+            } else {
+                3.0 * scale
+            };
+            // A box with a corner on the ray (rounded to f32), so that
+            // many of them are only just touched, or just missed.
+            let t = f64::from(rng.next_f32() * 2.0 * scale);
+            let on = (DVec3::from(Vec3::from(o)) + DVec3::from(Vec3::from(d)) * t).as_vec3();
+            let (mut lo, mut hi) = (Vec3A::from(on), Vec3A::from(on));
+            for a in 0..3 {
+                let e = match rng.next_u32() % 3 {
+                    0 => 0.0,
+                    1 => scale * 1e-7 * rng.next_f32(),
+                    _ => scale * rng.next_f32(),
+                };
+                if rng.next_u32() % 2 == 0 {
+                    lo[a] -= e;
+                } else {
+                    hi[a] += e;
+                }
+            }
+            let ray = BoxRay::new(o, d, 0.0);
+            assert!(ray.fast_test_fits());
+            if exact_enters(o, d, lo, hi, t_max) {
+                touched += 1;
+                assert!(
+                    fast_enters(&ray, lo, hi, t_max),
+                    "culled: o {o} d {d} box {lo}..{hi} t_max {t_max}"
+                );
+            }
+        }
+        // Most boxes are touched; the test means nothing if none were.
+        assert!(touched > 50_000, "only {touched} boxes touched");
     }
 }
