@@ -102,7 +102,9 @@ impl BoxRay {
                 origin * far_k * inv,
             ],
             t_min,
-            negative: inv.cmplt(Vec3A::ZERO).bitmask(),
+            // From `safe`, not `inv` (the same signs): the rows of the
+            // planes a node test loads do not wait for the division.
+            negative: safe.cmplt(Vec3A::ZERO).bitmask(),
         }
     }
 
