@@ -306,6 +306,9 @@ mod scalar {
         node.child[nearest.expect("a child was hit")]
     }
 
+    /// Out of line: only CPUs without AVX2 run it, and inlined it would
+    /// crowd the callers' fast path.
+    #[inline(never)]
     pub fn closest<L: Leaves>(
         nodes: &[Node8],
         ray: &BoxRay,
@@ -346,6 +349,8 @@ mod scalar {
         }
     }
 
+    /// Out of line, as [`closest`].
+    #[inline(never)]
     pub fn any<L: Leaves>(
         nodes: &[Node8],
         ray: &BoxRay,
