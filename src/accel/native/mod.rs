@@ -272,9 +272,10 @@ impl NativeBvh {
         self.shape
     }
 
-    /// Closest triangle and sphere hits; `t_max` shrinks to the hit.
     /// The closest hit of a traceable `ray`, whose coordinates are
-    /// `vectors` ([`Ray::vectors`], read once by the caller).
+    /// `vectors` ([`Ray::vectors`], read once by the caller). Watertight
+    /// triangles and spheres are tested out of line, so that the common
+    /// case, Möller–Trumbore blocks alone, stays small.
     fn closest(
         &self,
         ray: &Ray,
@@ -284,8 +285,7 @@ impl NativeBvh {
         let box_ray = BoxRay::new(vectors.0, vectors.1, ray.t_min);
         let mut t_max = ray.t_max;
         let mut work = Work::default();
-        let mut hit = None;
-        match &self.triangle_store {
+        let mut hit = match &self.triangle_store {
             TriangleStore::Blocks(blocks) => {
                 let mut leaves = BlockLeaves {
                     blocks,
@@ -299,65 +299,83 @@ impl NativeBvh {
                     &mut leaves,
                     &mut work,
                 );
-                if let Some((b, lane, u, v)) = leaves.best {
+                leaves.best.map(|(b, lane, u, v)| {
                     let block = &blocks[b as usize];
                     let [_, e1, e2] = block.lane(lane);
-                    hit = Some(Hit {
+                    Hit {
                         t: t_max,
                         prim: block.prim(lane),
                         u,
                         v,
                         normal: unit(e1.cross(e2)),
-                    });
-                }
+                    }
+                })
             }
             TriangleStore::Corners(corners) => {
-                let mut leaves = WatertightLeaves {
-                    corners,
-                    setup: Watertight::setup(ray),
-                    t_min: ray.t_min,
-                    best: None,
-                };
-                self.walk_closest(
-                    &self.triangles,
-                    &box_ray,
-                    &mut t_max,
-                    &mut leaves,
-                    &mut work,
-                );
-                if let Some((slot, u, v)) = leaves.best {
-                    let (tri, prim) = &corners[slot as usize];
-                    hit = Some(Hit {
-                        t: t_max,
-                        prim: *prim,
-                        u,
-                        v,
-                        normal: unit((tri[1] - tri[0]).cross(tri[2] - tri[0])),
-                    });
-                }
+                self.closest_watertight(corners, ray, &box_ray, &mut t_max, &mut work)
             }
-        }
+        };
         if !self.sphere_items.is_empty() {
-            let mut leaves = SphereLeaves {
-                items: &self.sphere_items,
-                ray,
-                best: None,
-            };
-            self.walk_closest(&self.spheres, &box_ray, &mut t_max, &mut leaves, &mut work);
-            if let Some(i) = leaves.best {
-                let s = &self.sphere_items[i as usize];
-                hit = Some(Hit {
-                    t: t_max,
-                    prim: s.prim,
-                    u: 0.0,
-                    v: 0.0,
-                    normal: (ray.at(t_max) - s.center).normalize_or_zero(),
-                });
-            }
+            hit = self
+                .closest_sphere(ray, &box_ray, &mut t_max, &mut work)
+                .or(hit);
         }
         counters.box_tests += work.nodes * node::WIDTH as u64;
         counters.prim_tests += work.items;
         hit
+    }
+
+    /// [`Self::closest`] over watertight triangles.
+    #[inline(never)]
+    fn closest_watertight(
+        &self,
+        corners: &[([Vec3; 3], u32)],
+        ray: &Ray,
+        box_ray: &BoxRay,
+        t_max: &mut f32,
+        work: &mut Work,
+    ) -> Option<Hit> {
+        let mut leaves = WatertightLeaves {
+            corners,
+            setup: Watertight::setup(ray),
+            t_min: ray.t_min,
+            best: None,
+        };
+        self.walk_closest(&self.triangles, box_ray, t_max, &mut leaves, work);
+        let (slot, u, v) = leaves.best?;
+        let (tri, prim) = &corners[slot as usize];
+        Some(Hit {
+            t: *t_max,
+            prim: *prim,
+            u,
+            v,
+            normal: unit((tri[1] - tri[0]).cross(tri[2] - tri[0])),
+        })
+    }
+
+    /// A sphere nearer than `t_max`, if any.
+    #[inline(never)]
+    fn closest_sphere(
+        &self,
+        ray: &Ray,
+        box_ray: &BoxRay,
+        t_max: &mut f32,
+        work: &mut Work,
+    ) -> Option<Hit> {
+        let mut leaves = SphereLeaves {
+            items: &self.sphere_items,
+            ray,
+            best: None,
+        };
+        self.walk_closest(&self.spheres, box_ray, t_max, &mut leaves, work);
+        let s = &self.sphere_items[leaves.best? as usize];
+        Some(Hit {
+            t: *t_max,
+            prim: s.prim,
+            u: 0.0,
+            v: 0.0,
+            normal: (ray.at(*t_max) - s.center).normalize_or_zero(),
+        })
     }
 
     #[inline(always)]
@@ -398,25 +416,41 @@ impl NativeBvh {
                 self.walk_any(&self.triangles, &box_ray, ray.t_max, &mut leaves, &mut work)
             }
             TriangleStore::Corners(corners) => {
-                let mut leaves = WatertightLeaves {
-                    corners,
-                    setup: Watertight::setup(ray),
-                    t_min: ray.t_min,
-                    best: None,
-                };
-                self.walk_any(&self.triangles, &box_ray, ray.t_max, &mut leaves, &mut work)
+                self.any_watertight(corners, ray, &box_ray, &mut work)
             }
-        } || (!self.sphere_items.is_empty() && {
-            let mut leaves = SphereLeaves {
-                items: &self.sphere_items,
-                ray,
-                best: None,
-            };
-            self.walk_any(&self.spheres, &box_ray, ray.t_max, &mut leaves, &mut work)
-        });
+        } || (!self.sphere_items.is_empty() && self.any_sphere(ray, &box_ray, &mut work));
         counters.box_tests += work.nodes * node::WIDTH as u64;
         counters.prim_tests += work.items;
         hit
+    }
+
+    /// [`Self::any`] over watertight triangles.
+    #[inline(never)]
+    fn any_watertight(
+        &self,
+        corners: &[([Vec3; 3], u32)],
+        ray: &Ray,
+        box_ray: &BoxRay,
+        work: &mut Work,
+    ) -> bool {
+        let mut leaves = WatertightLeaves {
+            corners,
+            setup: Watertight::setup(ray),
+            t_min: ray.t_min,
+            best: None,
+        };
+        self.walk_any(&self.triangles, box_ray, ray.t_max, &mut leaves, work)
+    }
+
+    /// [`Self::any`] over spheres.
+    #[inline(never)]
+    fn any_sphere(&self, ray: &Ray, box_ray: &BoxRay, work: &mut Work) -> bool {
+        let mut leaves = SphereLeaves {
+            items: &self.sphere_items,
+            ray,
+            best: None,
+        };
+        self.walk_any(&self.spheres, box_ray, ray.t_max, &mut leaves, work)
     }
 }
 
