@@ -13,6 +13,10 @@ pub struct Budget {
     pub repeats: usize,
     /// Time per frame: width, height, samples per pixel.
     pub frame: (u32, u32, u32),
+    /// Repeats of each backend's frame. More than the traces': a frame is
+    /// short and runs on every core, so one busy moment of the shared
+    /// machine moves a median of five by 10% or more.
+    pub frame_repeats: usize,
     pub error_resolution: (u32, u32),
     pub reference_spp: u32,
     pub error_spp: Vec<u32>,
@@ -43,6 +47,7 @@ impl Budget {
                 rays: 50_000,
                 repeats: 3,
                 frame: (120, 90, 4),
+                frame_repeats: 3,
                 error_resolution: (64, 48),
                 reference_spp: 512,
                 error_spp: vec![1, 2, 4, 8, 16, 32],
@@ -64,6 +69,7 @@ impl Budget {
                 rays: 1_000_000,
                 repeats: 5,
                 frame: (320, 240, 8),
+                frame_repeats: 15,
                 error_resolution: (160, 120),
                 reference_spp: 8192,
                 error_spp: vec![1, 2, 4, 8, 16, 32, 64, 128, 256],

@@ -120,7 +120,7 @@ pub fn run(options: &ReportOptions, log: &mut dyn FnMut(&str)) -> Result<(), Str
     let (scenes_md, scenes_json) = scenes::section(&per_scene);
     let brute_table = brute::table(&brute_rows);
     let mut md = format!(
-        "# hybrid: native BVH against Embree\n\nMeasured on {} ({} cores; ISA {}), {}, hybrid {}, {}, on {}. Settings: {} run, {} rays per ray kind, medians of {} warmed-up repeats (range in parentheses: min–max), all-threads figures on {threads} threads.\n\n",
+        "# hybrid: native BVH against Embree\n\nMeasured on {} ({} cores; ISA {}), {}, hybrid {}, {}, on {}. Settings: {} run, {} rays per ray kind, medians of {} warmed-up repeats ({} per frame; range in parentheses: min–max), all-threads figures on {threads} threads.\n\n",
         machine.cpu,
         machine.cores,
         machine.isa.join(" "),
@@ -130,7 +130,8 @@ pub fn run(options: &ReportOptions, log: &mut dyn FnMut(&str)) -> Result<(), Str
         machine.date,
         if options.quick { "quick" } else { "full" },
         budget.rays,
-        budget.repeats
+        budget.repeats,
+        budget.frame_repeats
     );
     let verdict = headline::verdict(&per_scene, &headline);
     md += &verdict;
@@ -152,7 +153,7 @@ pub fn run(options: &ReportOptions, log: &mut dyn FnMut(&str)) -> Result<(), Str
     );
     let report_json = json!({
         "machine": {"cpu": machine.cpu, "cores": machine.cores, "isa": machine.isa, "rustc": machine.rustc, "hybrid": machine.crate_version, "embree": embree_version, "date": machine.date},
-        "settings": {"quick": options.quick, "rays": budget.rays, "repeats": budget.repeats, "threads": threads},
+        "settings": {"quick": options.quick, "rays": budget.rays, "repeats": budget.repeats, "frame_repeats": budget.frame_repeats, "threads": threads},
         "verdict": verdict.trim(),
         "headline": headline.json(),
         "scenes": scenes_json,

@@ -164,7 +164,7 @@ pub fn measure(
     };
     // Interleaved as the rays are: a frame takes a tenth of a second, so
     // back-to-back repeats of one backend caught the machine's drift.
-    let frame_seconds = time_pair(budget.repeats, |i| {
+    let frame_seconds = time_pair(budget.frame_repeats, |i| {
         render(scene, &backends[i], &settings, &Silent)
     });
     Ok(SceneResult {
