@@ -204,8 +204,12 @@ fn render_rows<A: Accel>(
         .enumerate()
         .collect();
     rows.sort_unstable_by_key(|(row_index, _)| scattered(*row_index as u32));
+    // One row per job: rayon would otherwise cut the rows into a few
+    // pieces per thread, and the thread whose pieces cost less idles at
+    // the end of the frame.
     let totals: TraceCounters = rows
         .into_par_iter()
+        .with_max_len(1)
         .map(|(row_index, ((row, counts), sums))| {
             let y = cell.y + row_index as u32;
             let mut counters = TraceCounters::default();
