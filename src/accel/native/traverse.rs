@@ -719,7 +719,7 @@ mod tests {
                     1 => scale * 1e-7 * rng.next_f32(),
                     _ => scale * rng.next_f32(),
                 };
-                if rng.next_u32() % 2 == 0 {
+                if rng.next_u32().is_multiple_of(2) {
                     lo[a] -= e;
                 } else {
                     hi[a] += e;
