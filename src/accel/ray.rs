@@ -105,39 +105,34 @@ impl Ray {
     /// reported as misses by every backend, never traced.
     #[inline]
     pub fn is_traceable(&self) -> bool {
-        let (origin, dir) = self.vectors();
-        traceable(origin, dir, self.t_min, self.t_max)
+        self.traceable_vectors().is_some()
     }
 
-    /// The origin and the direction as vectors, read one coordinate at a
-    /// time. A ray is usually written just before it is traced, a field or
-    /// a coordinate per store, and a 16-byte load that spans two stores
-    /// cannot take its data from them: it waits until they reach the cache,
-    /// tens of cycles on the path from one bounce to the next. The compiler
-    /// merges adjacent loads into such wide ones, so the reads are volatile.
+    /// The origin and the direction as vectors if the ray is traceable
+    /// ([`Ray::is_traceable`]), read one coordinate at a time. A ray is
+    /// usually written just before it is traced, a field or a coordinate
+    /// per store, and a 16-byte load that spans two stores cannot take its
+    /// data from them: it waits until they reach the cache, tens of cycles
+    /// on the path from one bounce to the next. The compiler merges
+    /// adjacent loads into such wide ones, so the reads are volatile.
+    ///
+    /// Every ray pays for the check, so the coordinates take three vector
+    /// comparisons: `<=` is false for NaN, so the one against the limit
+    /// also rejects NaN and infinities; `t_min <= t_max` rejects a NaN at
+    /// either end.
     #[inline(always)]
-    pub fn vectors(&self) -> (Vec3A, Vec3A) {
+    pub fn traceable_vectors(&self) -> Option<(Vec3A, Vec3A)> {
         // SAFETY: each pointer comes from a reference to an initialised f32.
         let f = |x: &f32| unsafe { std::ptr::read_volatile(x) };
         let v = |v: &Vec3| Vec3A::new(f(&v.x), f(&v.y), f(&v.z));
-        (v(&self.origin), v(&self.dir))
+        let (origin, dir) = (v(&self.origin), v(&self.dir));
+        let limit = Vec3A::splat(COORDINATE_LIMIT);
+        let traceable = (origin.abs().cmple(limit) & dir.abs().cmple(limit)).all()
+            & dir.abs().cmpgt(Vec3A::ZERO).any()
+            & (self.t_min >= 0.0)
+            & (self.t_min <= self.t_max);
+        traceable.then_some((origin, dir))
     }
-}
-
-/// [`Ray::is_traceable`] on a ray's parts (from [`Ray::vectors`]).
-///
-/// Every ray pays for this check, so the coordinates take three vector
-/// comparisons: `<=` is false for NaN, so the one against the limit also
-/// rejects NaN and infinities; `t_min <= t_max` rejects a NaN at either
-/// end.
-#[inline]
-pub fn traceable(origin: Vec3A, dir: Vec3A, t_min: f32, t_max: f32) -> bool {
-    let limit = Vec3A::splat(COORDINATE_LIMIT);
-    let (origin, dir) = (origin.abs(), dir.abs());
-    (origin.cmple(limit) & dir.cmple(limit)).all()
-        & dir.cmpgt(Vec3A::ZERO).any()
-        & (t_min >= 0.0)
-        & (t_min <= t_max)
 }
 
 #[cfg(test)]
@@ -145,7 +140,7 @@ mod tests {
     use super::*;
 
     #[test]
-    fn vectors_are_the_coordinates() {
+    fn traceable_vectors_are_the_coordinates() {
         let r = Ray::spawn(
             &SpawnPoint {
                 p: Vec3::new(1.5, -2.25, 3.0),
@@ -155,7 +150,10 @@ mod tests {
             Vec3::new(0.6, 0.0, 0.8),
             7.0,
         );
-        assert_eq!(r.vectors(), (Vec3A::from(r.origin), Vec3A::from(r.dir)));
+        assert_eq!(
+            r.traceable_vectors(),
+            Some((Vec3A::from(r.origin), Vec3A::from(r.dir)))
+        );
     }
 
     #[test]

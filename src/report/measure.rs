@@ -91,12 +91,9 @@ pub fn mrays<A: Accel>(
     threads: usize,
     repeats: usize,
 ) -> Measured {
-    let run = || trace_all(accel, rays, query, threads);
-    let timing = if threads <= 1 {
-        time_repeats(repeats, run)
-    } else {
-        on_threads(threads, || time_repeats(repeats, run))
-    };
+    let timing = pooled(threads, || {
+        time_repeats(repeats, || trace_all(accel, rays, query, threads))
+    });
     Measured::per_second_millions(rays.len(), &timing)
 }
 
@@ -129,14 +126,18 @@ pub fn mrays_pair<A: Accel>(
     threads: usize,
     repeats: usize,
 ) -> [Measured; 2] {
-    let measure = || {
+    pooled(threads, || {
         time_pair(repeats, |i| trace_all(accels[i], rays, query, threads))
             .map(|t| Measured::per_second_millions(rays.len(), &t))
-    };
+    })
+}
+
+/// `f` on a pool of `threads` threads, or on this thread for one.
+fn pooled<T: Send>(threads: usize, f: impl FnOnce() -> T + Send) -> T {
     if threads <= 1 {
-        measure()
+        f()
     } else {
-        on_threads(threads, measure)
+        on_threads(threads, f)
     }
 }
 

@@ -30,7 +30,6 @@ use self::cpu::Avx2;
 use self::node::{Node8, MAX_LEAF_FIRST};
 use self::traverse::{BoxRay, BoxTest, Leaves, Work, MAX_DEPTH};
 use self::triangle::{TriangleBlock4, TriangleMode, TriangleTest, Watertight};
-use super::ray::traceable;
 use super::{Accel, AccelError, AccelStats, Hit, Ray, TraceCounters};
 use crate::choice::Choice;
 use crate::scene::{unit, Bounds, Scene};
@@ -273,7 +272,7 @@ impl NativeBvh {
     }
 
     /// The closest hit of a traceable `ray`, whose coordinates are
-    /// `vectors` ([`Ray::vectors`], read once by the caller). Watertight
+    /// `vectors` ([`Ray::traceable_vectors`], read once by the caller). Watertight
     /// triangles and spheres are tested out of line, so that the common
     /// case, Möller–Trumbore blocks alone, stays small.
     fn closest(
@@ -575,19 +574,15 @@ impl Leaves for SphereLeaves<'_> {
 impl Accel for NativeBvh {
     fn closest_hit(&self, ray: &Ray, counters: &mut TraceCounters) -> Option<Hit> {
         counters.rays += 1;
-        let vectors = ray.vectors();
-        if !traceable(vectors.0, vectors.1, ray.t_min, ray.t_max) {
-            return None;
-        }
+        let vectors = ray.traceable_vectors()?;
         self.closest(ray, vectors, counters)
     }
 
     fn occluded(&self, ray: &Ray, counters: &mut TraceCounters) -> bool {
         counters.rays += 1;
-        let vectors = ray.vectors();
-        if !traceable(vectors.0, vectors.1, ray.t_min, ray.t_max) {
+        let Some(vectors) = ray.traceable_vectors() else {
             return false;
-        }
+        };
         self.any(ray, vectors, counters)
     }
 
