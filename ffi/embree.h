@@ -1,7 +1,3 @@
-/* The one header bindgen reads: Embree's public API, major version chosen by
- * build.rs (Embree 3 on Debian 12, Embree 4 on Debian 13). */
-#if HYBRID_EMBREE_MAJOR == 4
-#include <embree4/rtcore.h>
-#else
+/* The one header bindgen reads: Embree 3's public API (Debian 12's
+ * libembree-dev). Embree 4's bindings come from the embree4-sys crate. */
 #include <embree3/rtcore.h>
-#endif

@@ -4,7 +4,7 @@
 //! benches and the CLI iterate. Adding a backend means its folder (declared
 //! in `accel/mod.rs`), this file and its CLI flags.
 
-use super::embree::{BuildQuality, EmbreeAccel, EmbreeOptions};
+use super::embree::{BuildQuality, Embree3, Embree4, EmbreeAccel, EmbreeOptions, EmbreeVersion};
 use super::native::build::BuildMethod;
 use super::native::triangle::TriangleMode;
 use super::native::{NativeBvh, NativeOptions};
@@ -16,7 +16,8 @@ use crate::scene::Scene;
 /// the per-ray path, one match per query.
 pub enum Backend<'s> {
     Native(NativeBvh),
-    Embree(EmbreeAccel<'s>),
+    Embree3(EmbreeAccel<'s, Embree3>),
+    Embree4(EmbreeAccel<'s, Embree4>),
     Brute(brute::BruteForce),
 }
 
@@ -25,7 +26,8 @@ impl Accel for Backend<'_> {
     fn closest_hit(&self, ray: &Ray, counters: &mut TraceCounters) -> Option<Hit> {
         match self {
             Backend::Native(a) => a.closest_hit(ray, counters),
-            Backend::Embree(a) => a.closest_hit(ray, counters),
+            Backend::Embree3(a) => a.closest_hit(ray, counters),
+            Backend::Embree4(a) => a.closest_hit(ray, counters),
             Backend::Brute(a) => a.closest_hit(ray, counters),
         }
     }
@@ -34,15 +36,26 @@ impl Accel for Backend<'_> {
     fn occluded(&self, ray: &Ray, counters: &mut TraceCounters) -> bool {
         match self {
             Backend::Native(a) => a.occluded(ray, counters),
-            Backend::Embree(a) => a.occluded(ray, counters),
+            Backend::Embree3(a) => a.occluded(ray, counters),
+            Backend::Embree4(a) => a.occluded(ray, counters),
             Backend::Brute(a) => a.occluded(ray, counters),
+        }
+    }
+
+    fn closest_hits(&self, rays: &[Ray], out: &mut Vec<Option<Hit>>) {
+        match self {
+            Backend::Native(a) => a.closest_hits(rays, out),
+            Backend::Embree3(a) => a.closest_hits(rays, out),
+            Backend::Embree4(a) => a.closest_hits(rays, out),
+            Backend::Brute(a) => a.closest_hits(rays, out),
         }
     }
 
     fn stats(&self) -> AccelStats {
         match self {
             Backend::Native(a) => a.stats(),
-            Backend::Embree(a) => a.stats(),
+            Backend::Embree3(a) => a.stats(),
+            Backend::Embree4(a) => a.stats(),
             Backend::Brute(a) => a.stats(),
         }
     }
@@ -76,28 +89,50 @@ impl BackendConfig {
         method: BuildMethod::Median,
         ..NativeOptions::DEFAULT
     });
-    /// Embree at its default (medium) build quality.
-    pub const EMBREE: BackendConfig = BackendConfig::Embree(EmbreeOptions::DEFAULT);
-    pub const EMBREE_ROBUST: BackendConfig = BackendConfig::Embree(EmbreeOptions {
-        robust: true,
-        ..EmbreeOptions::DEFAULT
-    });
-    pub const EMBREE_LOW: BackendConfig = BackendConfig::Embree(EmbreeOptions {
-        quality: BuildQuality::Low,
-        ..EmbreeOptions::DEFAULT
-    });
-    pub const EMBREE_HIGH: BackendConfig = BackendConfig::Embree(EmbreeOptions {
-        quality: BuildQuality::High,
-        ..EmbreeOptions::DEFAULT
-    });
+    /// Embree 3 at its default (medium) build quality.
+    pub const EMBREE: BackendConfig =
+        BackendConfig::embree(EmbreeVersion::V3, BuildQuality::Medium, false);
+    pub const EMBREE_ROBUST: BackendConfig =
+        BackendConfig::embree(EmbreeVersion::V3, BuildQuality::Medium, true);
+    pub const EMBREE_LOW: BackendConfig =
+        BackendConfig::embree(EmbreeVersion::V3, BuildQuality::Low, false);
+    pub const EMBREE_HIGH: BackendConfig =
+        BackendConfig::embree(EmbreeVersion::V3, BuildQuality::High, false);
+    /// Embree 4, the same four.
+    pub const EMBREE4: BackendConfig =
+        BackendConfig::embree(EmbreeVersion::V4, BuildQuality::Medium, false);
+    pub const EMBREE4_ROBUST: BackendConfig =
+        BackendConfig::embree(EmbreeVersion::V4, BuildQuality::Medium, true);
+    pub const EMBREE4_LOW: BackendConfig =
+        BackendConfig::embree(EmbreeVersion::V4, BuildQuality::Low, false);
+    pub const EMBREE4_HIGH: BackendConfig =
+        BackendConfig::embree(EmbreeVersion::V4, BuildQuality::High, false);
+
+    const fn embree(version: EmbreeVersion, quality: BuildQuality, robust: bool) -> BackendConfig {
+        BackendConfig::Embree(EmbreeOptions {
+            version,
+            quality,
+            robust,
+            threads: 0,
+        })
+    }
     pub const BRUTE: BackendConfig = BackendConfig::Brute;
 
     /// The backend's name as `--accel` spells it.
     pub fn kind(&self) -> &'static str {
         match self {
             BackendConfig::Native(_) => "native",
-            BackendConfig::Embree(_) => "embree",
+            BackendConfig::Embree(o) => o.version.name(),
             BackendConfig::Brute => "none",
+        }
+    }
+
+    /// `Ok` when the backend can be built on this machine (its library
+    /// loads), else what to install.
+    pub fn available(&self) -> Result<(), String> {
+        match self {
+            BackendConfig::Embree(o) => o.version.available(),
+            _ => Ok(()),
         }
     }
 
@@ -153,7 +188,10 @@ impl BackendConfig {
     pub fn build<'s>(&self, scene: &'s Scene) -> Result<Backend<'s>, AccelError> {
         Ok(match self {
             BackendConfig::Native(o) => Backend::Native(NativeBvh::build(scene, o)?),
-            BackendConfig::Embree(o) => Backend::Embree(EmbreeAccel::build(scene, o)?),
+            BackendConfig::Embree(o) => match o.version {
+                EmbreeVersion::V3 => Backend::Embree3(EmbreeAccel::build(scene, o)?),
+                EmbreeVersion::V4 => Backend::Embree4(EmbreeAccel::build(scene, o)?),
+            },
             BackendConfig::Brute => Backend::Brute(brute::BruteForce::build(scene)),
         })
     }
@@ -163,40 +201,73 @@ impl BackendConfig {
 /// with it, hit by hit.
 pub const PARITY_REFERENCE: BackendConfig = BackendConfig::NATIVE_WATERTIGHT;
 
+/// Keeps the configurations whose library loads here (the test suite
+/// requires both Embree versions under CI, so a missing one fails there
+/// rather than shortening a table).
+fn present(list: &[BackendConfig]) -> Vec<BackendConfig> {
+    list.iter()
+        .copied()
+        .filter(|c| c.available().is_ok())
+        .collect()
+}
+
 /// What the parity suite compares with the reference (brute force only
 /// where it [suits](BackendConfig::suits) the scene).
-pub const PARITY_CANDIDATES: [BackendConfig; 4] = [
-    BackendConfig::NATIVE,
-    BackendConfig::EMBREE,
-    BackendConfig::EMBREE_ROBUST,
-    BackendConfig::BRUTE,
-];
+pub fn parity_candidates() -> Vec<BackendConfig> {
+    present(&[
+        BackendConfig::NATIVE,
+        BackendConfig::EMBREE,
+        BackendConfig::EMBREE_ROBUST,
+        BackendConfig::EMBREE4,
+        BackendConfig::EMBREE4_ROBUST,
+        BackendConfig::BRUTE,
+    ])
+}
 
 /// The columns of the hard-case table.
-pub const HARD_CASE_MODES: [BackendConfig; 4] = [
-    BackendConfig::NATIVE,
-    BackendConfig::NATIVE_WATERTIGHT,
-    BackendConfig::EMBREE,
-    BackendConfig::EMBREE_ROBUST,
-];
+pub fn hard_case_modes() -> Vec<BackendConfig> {
+    present(&[
+        BackendConfig::NATIVE,
+        BackendConfig::NATIVE_WATERTIGHT,
+        BackendConfig::EMBREE,
+        BackendConfig::EMBREE_ROBUST,
+        BackendConfig::EMBREE4,
+        BackendConfig::EMBREE4_ROBUST,
+    ])
+}
 
 /// The builds the report and the benches time.
-pub const BUILD_VARIANTS: [BackendConfig; 6] = [
-    BackendConfig::NATIVE,
-    BackendConfig::NATIVE_WATERTIGHT,
-    BackendConfig::NATIVE_MEDIAN,
-    BackendConfig::EMBREE_LOW,
-    BackendConfig::EMBREE,
-    BackendConfig::EMBREE_HIGH,
-];
+pub fn build_variants() -> Vec<BackendConfig> {
+    present(&[
+        BackendConfig::NATIVE,
+        BackendConfig::NATIVE_WATERTIGHT,
+        BackendConfig::NATIVE_MEDIAN,
+        BackendConfig::EMBREE_LOW,
+        BackendConfig::EMBREE,
+        BackendConfig::EMBREE_HIGH,
+        BackendConfig::EMBREE4_LOW,
+        BackendConfig::EMBREE4,
+        BackendConfig::EMBREE4_HIGH,
+    ])
+}
 
-/// The two backends whose speed the report and the benches compare, in
-/// the order of every ratio (`native / embree`).
-pub const COMPARED: [BackendConfig; 2] = [BackendConfig::NATIVE, BackendConfig::EMBREE];
+/// The backends whose speed the report and the benches compare: native
+/// first, then each Embree present. Every ratio is native over one of
+/// the others, found by its label.
+pub fn compared() -> Vec<BackendConfig> {
+    present(&[
+        BackendConfig::NATIVE,
+        BackendConfig::EMBREE,
+        BackendConfig::EMBREE4,
+    ])
+}
 
 /// The "with and without acceleration" table.
-pub const WITH_AND_WITHOUT: [BackendConfig; 3] = [
-    BackendConfig::BRUTE,
-    BackendConfig::NATIVE,
-    BackendConfig::EMBREE,
-];
+pub fn with_and_without() -> Vec<BackendConfig> {
+    present(&[
+        BackendConfig::BRUTE,
+        BackendConfig::NATIVE,
+        BackendConfig::EMBREE,
+        BackendConfig::EMBREE4,
+    ])
+}

@@ -3,7 +3,7 @@
 //!
 //! - [`native`]: the project's own SAH BVH with Möller–Trumbore (or
 //!   watertight) triangles and analytic spheres;
-//! - [`embree`]: Embree through FFI;
+//! - [`embree`]: Embree 3 and Embree 4 through FFI, loaded at run time;
 //! - [`brute`]: every primitive for every ray, the baseline.
 //!
 //! The trait answers only "which primitive, where" ([`Hit`]); the shading
@@ -81,6 +81,14 @@ pub trait Accel: Sync + Send {
     fn closest_hit(&self, ray: &Ray, counters: &mut TraceCounters) -> Option<Hit>;
     /// True if anything lies in `[ray.t_min, ray.t_max]`.
     fn occluded(&self, ray: &Ray, counters: &mut TraceCounters) -> bool;
+    /// The closest hits of a batch of rays, one answer per ray in `out`
+    /// (cleared first): the same answers as [`Accel::closest_hit`], through
+    /// the backend's batched mode where it has one.
+    fn closest_hits(&self, rays: &[Ray], out: &mut Vec<Option<Hit>>) {
+        let mut counters = TraceCounters::default();
+        out.clear();
+        out.extend(rays.iter().map(|r| self.closest_hit(r, &mut counters)));
+    }
     fn stats(&self) -> AccelStats;
 }
 
@@ -89,6 +97,10 @@ pub trait Accel: Sync + Send {
 pub enum AccelError {
     #[error("embree: {0}")]
     Embree(String),
+    /// The backend's library is not installed (the message says what to
+    /// install).
+    #[error("{0}")]
+    Unavailable(String),
     #[error("{0}")]
     TooLarge(String),
 }

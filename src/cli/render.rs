@@ -7,7 +7,7 @@ use std::time::Instant;
 use clap::Args;
 
 use super::choice;
-use crate::accel::embree::{BuildQuality, EmbreeOptions};
+use crate::accel::embree::{BuildQuality, EmbreeOptions, EmbreeVersion};
 use crate::accel::native::build::BuildMethod;
 use crate::accel::native::triangle::TriangleMode;
 use crate::accel::native::NativeOptions;
@@ -25,7 +25,10 @@ use crate::scene::NormalMode;
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
 pub enum AccelArg {
     Native,
+    /// The newest Embree present: 4 when it loads, else 3.
     Embree,
+    Embree3,
+    Embree4,
     None,
 }
 
@@ -227,6 +230,9 @@ impl RenderArgs {
 
     /// Checks the options and turns them into render settings.
     pub fn settings(&self) -> Result<RenderSettings, String> {
+        self.backend()
+            .available()
+            .map_err(|why| format!("--accel {}: {why}", self.backend().kind()))?;
         let (width, height) = (self.resolution[0], self.resolution[1]);
         if width == 0 || height == 0 {
             return Err(format!(
@@ -421,11 +427,18 @@ impl RenderArgs {
                 max_leaf: self.leaf,
                 simd: !self.scalar,
             }),
-            AccelArg::Embree => BackendConfig::Embree(EmbreeOptions {
-                quality: self.quality,
-                robust: self.robust,
-                threads: self.threads,
-            }),
+            AccelArg::Embree | AccelArg::Embree3 | AccelArg::Embree4 => {
+                BackendConfig::Embree(EmbreeOptions {
+                    version: match self.accel {
+                        AccelArg::Embree3 => EmbreeVersion::V3,
+                        AccelArg::Embree4 => EmbreeVersion::V4,
+                        _ => EmbreeVersion::newest(),
+                    },
+                    quality: self.quality,
+                    robust: self.robust,
+                    threads: self.threads,
+                })
+            }
             AccelArg::None => BackendConfig::Brute,
         }
     }
@@ -698,7 +711,8 @@ pub fn render_with(args: &RenderArgs, settings: &RenderSettings) -> Result<Rende
             stats.details
         ),
         BackendConfig::Embree(_) => say!(
-            "embree scene built in {:.1} ms: {}, {:.1} MiB",
+            "{} scene built in {:.1} ms: {}, {:.1} MiB",
+            backend.kind(),
             stats.build_ms,
             stats.details,
             stats.memory_bytes as f64 / (1 << 20) as f64

@@ -11,7 +11,7 @@ pub mod rays;
 
 use glam::Vec3;
 
-use crate::accel::config::{PARITY_CANDIDATES, PARITY_REFERENCE};
+use crate::accel::config::{parity_candidates, PARITY_REFERENCE};
 use crate::accel::{Accel, AccelError, Backend, BackendConfig, Hit, Ray, TraceCounters};
 use crate::scene::Scene;
 
@@ -53,10 +53,10 @@ impl<'s> Candidate<'s> {
 }
 
 /// The reference ([`PARITY_REFERENCE`]) and the candidates
-/// ([`PARITY_CANDIDATES`] that suit the scene) for `scene`.
+/// ([`parity_candidates`] that suit the scene) for `scene`.
 pub fn candidates(scene: &Scene) -> Result<(Candidate<'_>, Vec<Candidate<'_>>), AccelError> {
     let reference = Candidate::build(&PARITY_REFERENCE, scene)?;
-    let list = PARITY_CANDIDATES
+    let list = parity_candidates()
         .iter()
         .filter(|c| c.suits(scene))
         .map(|c| Candidate::build(c, scene))

@@ -7,11 +7,11 @@ use super::budget::{Budget, BRUTE_FORCE_SCENES};
 use super::load;
 use super::measure::{mrays, Query};
 use super::table::{Cell, Measured, Table};
-use crate::accel::config::WITH_AND_WITHOUT;
+use crate::accel::config::with_and_without;
 use crate::accel::BackendConfig;
 use crate::parity::rays;
 
-/// One scene: camera-ray Mrays/s per configuration of [`WITH_AND_WITHOUT`].
+/// One scene: camera-ray Mrays/s per configuration of [`with_and_without`].
 pub struct BruteRow {
     pub scene: String,
     pub primitives: usize,
@@ -24,7 +24,7 @@ pub fn measure(dir: &Path, budget: &Budget) -> Result<Vec<BruteRow>, String> {
         .map(|rel| {
             let scene = load(dir, rel)?;
             let set = rays::camera_rays(&scene, (budget.rays / 4).max(2_000), 4);
-            let mrays = WITH_AND_WITHOUT
+            let mrays = with_and_without()
                 .iter()
                 .map(|config| {
                     let accel = config.build(&scene).map_err(|e| e.to_string())?;
@@ -50,13 +50,14 @@ pub fn table(rows: &[BruteRow]) -> Table {
         ("scene".to_string(), "scene".to_string()),
         ("primitives".into(), "primitives".into()),
     ];
-    for c in &WITH_AND_WITHOUT {
+    let configs = with_and_without();
+    for c in &configs {
         columns.push((
             format!("{}_mrays", c.kind()),
             format!("{} Mrays/s", c.kind()),
         ));
     }
-    for c in &WITH_AND_WITHOUT[1..] {
+    for c in &configs[1..] {
         columns.push((
             format!("{}_speedup", c.kind()),
             format!("{} speed-up over none", c.kind()),

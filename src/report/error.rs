@@ -9,7 +9,7 @@ use std::path::Path;
 use super::budget::Budget;
 use super::plot::{loglog, loglog_slope, Series};
 use super::table::{Cell, Table};
-use crate::accel::config::COMPARED;
+use crate::accel::config::compared;
 use crate::accel::Accel;
 use crate::render::film::Film;
 use crate::render::integrator::{DirectEstimator, PathSettings, Shading};
@@ -146,7 +146,8 @@ fn point<A: Accel>(scene: &Scene, accel: &A, s: &RenderSettings, reference: &Fil
 pub fn measure(budget: &Budget, threads: usize) -> Result<ErrorStudy, String> {
     let scene = GLOSSY.load(NormalMode::Smooth).map_err(|e| e.to_string())?;
     let res = budget.error_resolution;
-    let backends = COMPARED
+    let compared = compared();
+    let backends = compared
         .iter()
         .map(|c| c.with_threads(threads).build(&scene))
         .collect::<Result<Vec<_>, _>>()
@@ -166,7 +167,7 @@ pub fn measure(budget: &Budget, threads: usize) -> Result<ErrorStudy, String> {
     )
     .film;
     let mut series = Vec::new();
-    for (config, accel) in COMPARED.iter().zip(&backends) {
+    for (config, accel) in compared.iter().zip(&backends) {
         let backend = config.kind();
         for (label, estimator) in ESTIMATORS {
             let points = budget
@@ -311,7 +312,7 @@ pub fn headline(study: &ErrorStudy) -> String {
         "Error at equal time ({t:.2} s per render, `{}`, {} bounces, {} threads), RMSE against the reference:\n\n",
         study.scene, study.max_bounces, study.threads
     );
-    for backend in COMPARED.iter().map(|c| c.kind()) {
+    for backend in compared().iter().map(|c| c.kind()) {
         let at = |e| study.rmse_at_equal_time(backend, e);
         if let (Some(m), Some(l), Some(h)) = (at("MIS"), at("light sampling"), at("hemisphere")) {
             md += &format!(

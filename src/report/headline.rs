@@ -1,13 +1,42 @@
-//! The headline: native against Embree on every scene, as speed ratios
+//! The headline: native against each Embree on every scene, as speed ratios
 //! (greater than 1: native is faster) for the build, each ray kind and a
 //! rendered frame, on one thread and on all threads. Read from the
 //! per-scene rows.
 
 use super::scenes::{BuildRow, SceneResult};
 use super::table::{Cell, Flag, Measured, Table};
-use crate::accel::config::COMPARED;
+use crate::accel::BackendConfig;
 
-/// One row per measure, one column per scene.
+/// The Embree backends the headline compares native with: every compared
+/// backend after native, by its index in [`SceneResult::compared`].
+fn rivals(results: &[SceneResult]) -> Vec<(usize, String)> {
+    results.first().map_or(Vec::new(), |r| {
+        r.compared
+            .iter()
+            .enumerate()
+            .skip(1)
+            .map(|(j, c)| (j, c.label()))
+            .collect()
+    })
+}
+
+/// Builds: backend `j`'s time over `i`'s, so that > 1 means `i` is faster,
+/// as for every other row.
+fn build_ratio(r: &SceneResult, i: usize, j: usize, all: bool) -> Cell {
+    match (r.build(&r.compared[i]), r.build(&r.compared[j])) {
+        (Some(a), Some(b)) => {
+            let pick =
+                |b: &BuildRow| Measured::seconds(if all { &b.all_threads } else { &b.one_thread });
+            let (ta, tb) = (pick(a), pick(b));
+            let slower = |b: &BuildRow| b.all_threads.median > b.one_thread.median;
+            Cell::ratio_of(tb.median / ta.median, &[ta, tb])
+                .flagged((all && (slower(a) || slower(b))).then_some(Flag::BelowOneThread))
+        }
+        _ => Cell::Empty,
+    }
+}
+
+/// One row per measure and Embree version, one column per scene.
 pub fn table(results: &[SceneResult]) -> Table {
     let threads = results.first().map_or(1, |r| r.threads);
     let mut columns = vec![("measure".to_string(), "native / Embree speed".to_string())];
@@ -27,72 +56,103 @@ pub fn table(results: &[SceneResult]) -> Table {
             .map(|r| Cell::Count(r.triangles as u64))
             .collect(),
     );
-    // Builds: Embree's time over native's, so that > 1 means native is
-    // faster, as for every other row.
-    let build = |r: &SceneResult, all: bool| match (r.build(&COMPARED[0]), r.build(&COMPARED[1])) {
-        (Some(n), Some(e)) => {
-            let pick =
-                |b: &BuildRow| Measured::seconds(if all { &b.all_threads } else { &b.one_thread });
-            let (tn, te) = (pick(n), pick(e));
-            let slower = |b: &BuildRow| b.all_threads.median > b.one_thread.median;
-            Cell::ratio_of(te.median / tn.median, &[tn, te])
-                .flagged((all && (slower(n) || slower(e))).then_some(Flag::BelowOneThread))
-        }
-        _ => Cell::Empty,
+    // On one thread only, the all-threads rows say nothing new.
+    let thread_counts: &[bool] = if threads > 1 {
+        &[false, true]
+    } else {
+        &[false]
     };
-    row(
-        "build, 1 thread".into(),
-        results.iter().map(|r| build(r, false)).collect(),
-    );
-    row(
-        format!("build, {threads} threads"),
-        results.iter().map(|r| build(r, true)).collect(),
-    );
+    let on = |all: bool| {
+        if all {
+            format!("{threads} threads")
+        } else {
+            "1 thread".into()
+        }
+    };
     let kinds: Vec<&'static str> = results
         .first()
         .map(|r| r.traces.iter().map(|t| t.kind).collect())
         .unwrap_or_default();
-    for kind in kinds {
-        for all in [false, true] {
-            let label = if all {
-                format!("{kind} rays, {threads} threads")
-            } else {
-                format!("{kind} rays, 1 thread")
-            };
+    for (j, rival) in rivals(results) {
+        for &all in thread_counts {
             row(
-                label,
-                results
-                    .iter()
-                    .map(|r| match r.traces.iter().find(|t| t.kind == kind) {
-                        Some(t) if all => Cell::ratio_of(t.ratio_all_threads(), &t.all_threads)
-                            .flagged(t.below_one_thread().then_some(Flag::BelowOneThread)),
-                        Some(t) => Cell::ratio_of(t.ratio(), &t.one_thread),
-                        None => Cell::Empty,
-                    })
-                    .collect(),
+                format!("build, {}, vs {rival}", on(all)),
+                results.iter().map(|r| build_ratio(r, 0, j, all)).collect(),
             );
         }
+        for kind in &kinds {
+            for &all in thread_counts {
+                row(
+                    format!("{kind} rays, {}, vs {rival}", on(all)),
+                    results
+                        .iter()
+                        .map(|r| match r.traces.iter().find(|t| t.kind == *kind) {
+                            Some(t) if all => {
+                                Cell::ratio_of(t.ratio_all_threads(j), &t.pair(j, true))
+                                    .flagged(t.below_one_thread(j).then_some(Flag::BelowOneThread))
+                            }
+                            Some(t) => Cell::ratio_of(t.ratio(j), &t.pair(j, false)),
+                            None => Cell::Empty,
+                        })
+                        .collect(),
+                );
+            }
+        }
+        row(
+            format!("frame, {threads} threads, vs {rival}"),
+            results
+                .iter()
+                .map(|r| Cell::ratio_of(r.frame_ratio(j), &r.frame_pair(j)))
+                .collect(),
+        );
     }
-    row(
-        format!("frame, {threads} threads"),
-        results
-            .iter()
-            .map(|r| {
-                let seconds = r.frame_seconds.each_ref().map(Measured::seconds);
-                Cell::ratio_of(r.frame_ratio(), &seconds)
-            })
-            .collect(),
-    );
     table
 }
 
-/// The measures the verdict reads, one thread: label and ratio per scene.
-fn one_thread_ratios(r: &SceneResult) -> Vec<(String, f64)> {
+/// Embree 4 against Embree 3 where both are present: Embree 4's speed over
+/// Embree 3's per measure (builds and frames: Embree 3's time over Embree
+/// 4's), one thread; `None` without both.
+pub fn versions_table(results: &[SceneResult]) -> Option<Table> {
+    let first = results.first()?;
+    let find = |c: BackendConfig| first.index(&c);
+    let (e3, e4) = (find(BackendConfig::EMBREE)?, find(BackendConfig::EMBREE4)?);
+    let mut columns = vec![(
+        "measure".to_string(),
+        "Embree 4 / Embree 3 speed".to_string(),
+    )];
+    for (i, r) in results.iter().enumerate() {
+        columns.push((format!("scene_{i}"), r.scene.clone()));
+    }
+    let mut table = Table::new(columns);
+    let mut cells = vec![Cell::Text("build, 1 thread".into())];
+    cells.extend(results.iter().map(|r| build_ratio(r, e4, e3, false)));
+    table.row(cells);
+    for (k, t) in first.traces.iter().enumerate() {
+        let mut cells = vec![Cell::Text(format!("{} rays, 1 thread", t.kind))];
+        cells.extend(results.iter().map(|r| {
+            let t = &r.traces[k];
+            let pair = [t.one_thread[e4], t.one_thread[e3]];
+            Cell::ratio_of(pair[0].median / pair[1].median, &pair)
+        }));
+        table.row(cells);
+    }
+    let mut cells = vec![Cell::Text(format!("frame, {} threads", first.threads))];
+    cells.extend(results.iter().map(|r| {
+        let pair = [r.frame_pair(e4)[1], r.frame_pair(e3)[1]];
+        Cell::ratio_of(pair[1].median / pair[0].median, &pair)
+    }));
+    table.row(cells);
+    Some(table)
+}
+
+/// The measures the verdict reads, one thread, against backend `j`: label
+/// and ratio per scene.
+fn one_thread_ratios(r: &SceneResult, j: usize) -> Vec<(String, f64)> {
     let mut out = Vec::new();
     for t in &r.traces {
-        out.push((format!("{} rays", t.kind), t.ratio()));
+        out.push((format!("{} rays", t.kind), t.ratio(j)));
     }
-    if let (Some(n), Some(e)) = (r.build(&COMPARED[0]), r.build(&COMPARED[1])) {
+    if let (Some(n), Some(e)) = (r.build(&r.compared[0]), r.build(&r.compared[j])) {
         out.push(("builds".into(), e.one_thread.median / n.one_thread.median));
     }
     out
@@ -120,81 +180,83 @@ pub fn verdict(results: &[SceneResult], table: &Table) -> String {
     let small: Vec<&SceneResult> = results.iter().filter(|r| r.triangles < 10_000).collect();
     let threads = results.first().map_or(1, |r| r.threads);
     let mut text = String::new();
-    // Each measure's range over a group of scenes (every scene has the
-    // same measures in the same order).
-    let describe = |group: &[&SceneResult]| -> Vec<String> {
-        let per_scene: Vec<Vec<(String, f64)>> =
-            group.iter().map(|r| one_thread_ratios(r)).collect();
-        let Some(first) = per_scene.first() else {
-            return Vec::new();
+    for (j, rival) in rivals(results) {
+        // Each measure's range over a group of scenes (every scene has the
+        // same measures in the same order).
+        let describe = |group: &[&SceneResult]| -> Vec<String> {
+            let per_scene: Vec<Vec<(String, f64)>> =
+                group.iter().map(|r| one_thread_ratios(r, j)).collect();
+            let Some(first) = per_scene.first() else {
+                return Vec::new();
+            };
+            first
+                .iter()
+                .enumerate()
+                .map(|(i, (label, _))| {
+                    let values: Vec<f64> = per_scene
+                        .iter()
+                        .filter_map(|s| s.get(i))
+                        .map(|m| m.1)
+                        .collect();
+                    format!("{} on {label}", range(&values))
+                })
+                .collect()
         };
-        first
-            .iter()
-            .enumerate()
-            .map(|(i, (label, _))| {
-                let values: Vec<f64> = per_scene
-                    .iter()
-                    .filter_map(|s| s.get(i))
-                    .map(|m| m.1)
-                    .collect();
-                format!("{} on {label}", range(&values))
-            })
-            .collect()
-    };
-    if !meshes.is_empty() {
-        text += &format!(
-            "On one thread, on the {} meshes of 10^4 triangles or more, the native BVH's speed is {} Embree's (ratios native / Embree: greater than 1 means native is faster). ",
-            meshes.len(),
-            describe(&meshes).join(", ")
-        );
-    }
-    if !small.is_empty() {
-        let names: Vec<String> = small
-            .iter()
-            .map(|r| format!("{}-primitive", r.primitives))
-            .collect();
-        text += &format!(
-            "On the {} scene{} it is {}. ",
-            names.join(" and "),
-            if small.len() > 1 { "s" } else { "" },
-            describe(&small).join(", ")
-        );
-    }
-    let frames: Vec<f64> = results.iter().map(SceneResult::frame_ratio).collect();
-    if !frames.is_empty() {
-        text += &format!(
-            "A path-traced frame on {threads} threads renders at {} of Embree's speed. ",
-            range(&frames)
-        );
-    }
-    let behind: Vec<String> = results
-        .iter()
-        .filter_map(|r| {
-            let lost: Vec<String> = one_thread_ratios(r)
-                .into_iter()
-                .filter(|(_, v)| *v < BEHIND)
-                .map(|(label, v)| format!("{label} {v:.2}x"))
+        if !meshes.is_empty() {
+            text += &format!(
+                "Against {rival}, on one thread, on the {} meshes of 10^4 triangles or more, the native BVH's speed is {} {rival}'s (greater than 1 means native is faster). ",
+                meshes.len(),
+                describe(&meshes).join(", ")
+            );
+        }
+        if !small.is_empty() {
+            let names: Vec<String> = small
+                .iter()
+                .map(|r| format!("{}-primitive", r.primitives))
                 .collect();
-            (!lost.is_empty()).then(|| format!("{} ({})", r.scene, lost.join(", ")))
-        })
-        .collect();
-    if behind.is_empty() {
-        text += "On one thread native is at least Embree's equal (within 5%) on every scene and measure.";
-    } else {
-        text += &format!(
-            "On one thread native falls behind (below {BEHIND}x) on {}.",
-            behind.join("; ")
-        );
+            text += &format!(
+                "On the {} scene{} it is {}. ",
+                names.join(" and "),
+                if small.len() > 1 { "s" } else { "" },
+                describe(&small).join(", ")
+            );
+        }
+        let frames: Vec<f64> = results.iter().map(|r| r.frame_ratio(j)).collect();
+        if !frames.is_empty() {
+            text += &format!(
+                "A path-traced frame on {threads} threads renders at {} of {rival}'s speed. ",
+                range(&frames)
+            );
+        }
+        let behind: Vec<String> = results
+            .iter()
+            .filter_map(|r| {
+                let lost: Vec<String> = one_thread_ratios(r, j)
+                    .into_iter()
+                    .filter(|(_, v)| *v < BEHIND)
+                    .map(|(label, v)| format!("{label} {v:.2}x"))
+                    .collect();
+                (!lost.is_empty()).then(|| format!("{} ({})", r.scene, lost.join(", ")))
+            })
+            .collect();
+        if behind.is_empty() {
+            text += &format!("On one thread native is at least {rival}'s equal (within 5%) on every scene and measure.\n\n");
+        } else {
+            text += &format!(
+                "On one thread native falls behind {rival} (below {BEHIND}x) on {}.\n\n",
+                behind.join("; ")
+            );
+        }
     }
     let (noisy, below) = (table.count(Flag::Noisy), table.count(Flag::BelowOneThread));
     if noisy + below > 0 {
         text += &format!(
-            " Of the headline's figures, {noisy} rest on repeats that spread by more than 10% ({}) and {below} on {threads} threads fell below their one-thread figure ({}): read those with care, or measure again.",
+            "Of the headline's figures, {noisy} rest on repeats that spread by more than 10% ({}) and {below} on {threads} threads fell below their one-thread figure ({}): read those with care, or measure again.\n\n",
             Flag::Noisy.mark(),
             Flag::BelowOneThread.mark()
         );
     }
-    format!("{text}\n\n")
+    text
 }
 
 /// The headline section.
@@ -204,7 +266,11 @@ pub fn markdown(table: &Table, results: &[SceneResult]) -> String {
         .and_then(|r| r.traces.first())
         .map_or(0, |t| t.rays);
     format!(
-        "## Headline: native against Embree\n\nSpeed ratios, native over Embree (builds and frames: Embree's time over native's): greater than 1 means native is faster. Medians of warmed-up repeats on the same rays (about {rays} per kind), native's and Embree's trace and frame repeats interleaved; ⚠ marks a ratio one of whose two figures spread by more than 10% over its repeats, ↓ a figure on all threads below the same figure on one thread (the per-scene sections below give the absolute figures with their ranges). Ray kinds: camera (jittered pinhole grid over the framed scene), incoherent (origins uniform in the scene's bounds, uniform directions), shadow (the incoherent rays as occlusion queries reaching half the bounds' diagonal), bounce (diffuse rays leaving camera hits) and light (shadow rays from camera hits to light samples). The frame is the per-scene section's path-traced render.\n\n{}\n",
-        table.markdown()
+        "## Headline: native against Embree\n\nSpeed ratios, native over each Embree present (`vs embree3`: Debian's 3.13.5; `vs embree4`: Embree 4, its version in the machine section), builds and frames as that Embree's time over native's: greater than 1 means native is faster. Embree is called through hybrid's wrapper, single rays (each Embree's batch call is in the per-scene sections). Medians of warmed-up repeats on the same rays (about {rays} per kind), every backend's trace and frame repeats interleaved; ⚠ marks a ratio one of whose two figures spread by more than 10% over its repeats, ↓ a figure on all threads below the same figure on one thread (the per-scene sections below give the absolute figures with their ranges). Ray kinds: camera (jittered pinhole grid over the framed scene), incoherent (origins uniform in the scene's bounds, uniform directions), shadow (the incoherent rays as occlusion queries reaching half the bounds' diagonal), bounce (diffuse rays leaving camera hits) and light (shadow rays from camera hits to light samples). The frame is the per-scene section's path-traced render.\n\n{}\n{}",
+        table.markdown(),
+        versions_table(results).map_or(String::new(), |t| format!(
+            "### Embree 4 against Embree 3\n\nEmbree 4's speed over Embree 3's on the same rays and frames, both at medium quality (builds and frames: Embree 3's time over Embree 4's), greater than 1 means Embree 4 is faster.\n\n{}\n",
+            t.markdown()
+        ))
     )
 }

@@ -97,38 +97,47 @@ pub fn mrays<A: Accel>(
     Measured::per_second_millions(rays.len(), &timing)
 }
 
-/// Timings of two runs measured together: after one warm-up each, their
-/// repeats interleave (A B, B A, A B, ...), so both see the same machine
-/// state, where back-to-back blocks of repeats let drift in clock speed,
-/// caches or the other core's load land on one of them only.
-pub fn time_pair<T>(repeats: usize, mut run: impl FnMut(usize) -> T) -> [Timing; 2] {
-    for i in 0..2 {
+/// Timings of `n` runs measured together: after one warm-up each, their
+/// repeats interleave, forwards then backwards (A B C, C B A, A B C, ...),
+/// so all see the same machine state, where back-to-back blocks of repeats
+/// let drift in clock speed, caches or the other core's load land on one
+/// of them only.
+pub fn time_interleaved<T>(
+    n: usize,
+    repeats: usize,
+    mut run: impl FnMut(usize) -> T,
+) -> Vec<Timing> {
+    for i in 0..n {
         std::hint::black_box(run(i));
     }
-    let mut seconds = [Vec::new(), Vec::new()];
+    let mut seconds = vec![Vec::new(); n];
     for round in 0..repeats.max(1) {
-        let order = if round % 2 == 0 { [0, 1] } else { [1, 0] };
-        for i in order {
+        for k in 0..n {
+            let i = if round % 2 == 0 { k } else { n - 1 - k };
             let start = Instant::now();
             std::hint::black_box(run(i));
             seconds[i].push(start.elapsed().as_secs_f64());
         }
     }
-    seconds.map(Timing::from_samples)
+    seconds.into_iter().map(Timing::from_samples).collect()
 }
 
-/// Million rays per second of two backends on the same `rays`, their
-/// repeats interleaved ([`time_pair`]).
-pub fn mrays_pair<A: Accel>(
-    accels: [&A; 2],
+/// Million rays per second of several backends on the same `rays`, their
+/// repeats interleaved ([`time_interleaved`]).
+pub fn mrays_interleaved<A: Accel>(
+    accels: &[&A],
     rays: &[Ray],
     query: Query,
     threads: usize,
     repeats: usize,
-) -> [Measured; 2] {
+) -> Vec<Measured> {
     pooled(threads, || {
-        time_pair(repeats, |i| trace_all(accels[i], rays, query, threads))
-            .map(|t| Measured::per_second_millions(rays.len(), &t))
+        time_interleaved(accels.len(), repeats, |i| {
+            trace_all(accels[i], rays, query, threads)
+        })
+        .iter()
+        .map(|t| Measured::per_second_millions(rays.len(), t))
+        .collect()
     })
 }
 

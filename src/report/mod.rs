@@ -31,7 +31,8 @@ use std::time::Instant;
 use serde_json::json;
 
 use self::budget::{Budget, SCENES};
-use crate::accel::embree::{EmbreeAccel, EmbreeOptions};
+use crate::accel::config::compared;
+use crate::accel::{Accel, AccelError, BackendConfig};
 use crate::scene::builtin::Builtin;
 use crate::scene::{collada, NormalMode, Scene};
 
@@ -85,9 +86,13 @@ pub fn run(options: &ReportOptions, log: &mut dyn FnMut(&str)) -> Result<(), Str
     std::fs::create_dir_all(out)
         .map_err(|e| format!("{}: cannot create the folder: {e}", out.display()))?;
     let machine = machine::Machine::detect();
-    let embree_version = EmbreeAccel::build(&Scene::default(), &EmbreeOptions::DEFAULT)
+    let embree_version = compared()
+        .iter()
+        .filter(|c| matches!(c, BackendConfig::Embree(_)))
+        .map(|c| Ok(c.build(&Scene::default())?.stats().details))
+        .collect::<Result<Vec<String>, AccelError>>()
         .map_err(|e| e.to_string())?
-        .description();
+        .join("; ");
 
     let mut per_scene = Vec::new();
     for s in &SCENES {

@@ -7,10 +7,11 @@ use std::path::Path;
 use glam::Vec3;
 
 use super::budget::Budget;
-use super::measure::{mrays_pair, time_repeats, Query, Timing};
+use super::measure::{mrays_interleaved, time_repeats, Query, Timing};
 use super::plot::{loglog, loglog_slope, Series};
 use super::table::{Cell, Measured, Table};
-use crate::accel::config::COMPARED;
+use crate::accel::config::compared;
+use crate::accel::BackendConfig;
 use crate::accel::Ray;
 use crate::render::sampling::Rng;
 use crate::scene::generate::{plate, SceneBuilder};
@@ -20,16 +21,18 @@ use crate::scene::{Material, NormalMode, Scene};
 /// backend.
 pub struct ScalingRow {
     pub triangles: usize,
-    pub build: [Timing; 2],
-    pub mrays: [Measured; 2],
+    pub build: Vec<Timing>,
+    pub mrays: Vec<Measured>,
 }
 
 pub struct Scaling {
+    /// The compared backends, native first: the order of every vector.
+    pub compared: Vec<BackendConfig>,
     pub rows: Vec<ScalingRow>,
     /// Fitted slopes: build time per compared backend, time per ray per
     /// compared backend.
-    pub build_slopes: [f64; 2],
-    pub trace_slopes: [f64; 2],
+    pub build_slopes: Vec<f64>,
+    pub trace_slopes: Vec<f64>,
 }
 
 /// A bumpy square of about `triangles` triangles (a displaced grid, so the
@@ -61,6 +64,7 @@ fn plate_rays(n: usize) -> Vec<Ray> {
 
 pub fn measure(budget: &Budget) -> Result<Scaling, String> {
     let set = plate_rays(budget.scaling_rays);
+    let compared = compared();
     let mut rows = Vec::new();
     for &size in &budget.scaling {
         let scene = bumpy_plate(size);
@@ -69,19 +73,17 @@ pub fn measure(budget: &Budget) -> Result<Scaling, String> {
         } else {
             budget.repeats.min(5)
         };
-        let build = COMPARED.map(|c| time_repeats(repeats, || c.build(&scene).map(|_| ())));
-        let backends = COMPARED
+        let build = compared
+            .iter()
+            .map(|c| time_repeats(repeats, || c.build(&scene).map(|_| ())))
+            .collect();
+        let backends = compared
             .iter()
             .map(|c| c.build(&scene))
             .collect::<Result<Vec<_>, _>>()
             .map_err(|e| e.to_string())?;
-        let mrays = mrays_pair(
-            [&backends[0], &backends[1]],
-            &set,
-            Query::Closest,
-            1,
-            repeats,
-        );
+        let all: Vec<_> = backends.iter().collect();
+        let mrays = mrays_interleaved(&all, &set, Query::Closest, 1, repeats);
         rows.push(ScalingRow {
             triangles: scene.triangle_count(),
             build,
@@ -98,9 +100,14 @@ pub fn measure(budget: &Budget) -> Result<Scaling, String> {
             .map(|r| (r.triangles as f64, 1e3 / r.mrays[i].median))
             .collect()
     };
-    let build_slopes = [0, 1].map(|i| loglog_slope(&build_points(i)));
-    let trace_slopes = [0, 1].map(|i| loglog_slope(&trace_points(i)));
+    let build_slopes = (0..compared.len())
+        .map(|i| loglog_slope(&build_points(i)))
+        .collect();
+    let trace_slopes = (0..compared.len())
+        .map(|i| loglog_slope(&trace_points(i)))
+        .collect();
     Ok(Scaling {
+        compared,
         rows,
         build_slopes,
         trace_slopes,
@@ -108,23 +115,40 @@ pub fn measure(budget: &Budget) -> Result<Scaling, String> {
 }
 
 pub fn table(s: &Scaling) -> Table {
-    let mut table = Table::new([
-        ("triangles", "triangles"),
-        ("native_build_ms", "native build ms"),
-        ("embree_build_ms", "embree build ms"),
-        ("native_mrays", "native Mrays/s"),
-        ("embree_mrays", "embree Mrays/s"),
-        ("ratio", "native/embree trace speed (> 1: native faster)"),
-    ]);
+    let labels: Vec<String> = s.compared.iter().map(BackendConfig::label).collect();
+    let mut columns = vec![("triangles".to_string(), "triangles".to_string())];
+    columns.extend(
+        labels
+            .iter()
+            .map(|l| (format!("{l}_build_ms"), format!("{l} build ms"))),
+    );
+    columns.extend(
+        labels
+            .iter()
+            .map(|l| (format!("{l}_mrays"), format!("{l} Mrays/s"))),
+    );
+    columns.extend(labels[1..].iter().map(|l| {
+        (
+            format!("native_over_{l}"),
+            format!("native/{l} trace speed (> 1: native faster)"),
+        )
+    }));
+    let mut table = Table::new(columns);
     for r in &s.rows {
-        table.row(vec![
-            Cell::Count(r.triangles as u64),
-            Cell::Measured(Measured::millis(&r.build[0]), 2),
-            Cell::Measured(Measured::millis(&r.build[1]), 2),
-            Cell::Measured(r.mrays[0], 2),
-            Cell::Measured(r.mrays[1], 2),
-            Cell::ratio_of(r.mrays[0].median / r.mrays[1].median, &r.mrays),
-        ]);
+        let mut cells = vec![Cell::Count(r.triangles as u64)];
+        cells.extend(
+            r.build
+                .iter()
+                .map(|b| Cell::Measured(Measured::millis(b), 2)),
+        );
+        cells.extend(r.mrays.iter().map(|m| Cell::Measured(*m, 2)));
+        cells.extend((1..labels.len()).map(|j| {
+            Cell::ratio_of(
+                r.mrays[0].median / r.mrays[j].median,
+                &[r.mrays[0], r.mrays[j]],
+            )
+        }));
+        table.row(cells);
     }
     table
 }
@@ -135,7 +159,7 @@ pub fn slopes_table(s: &Scaling) -> Table {
         ("build", "build time ∝ n^"),
         ("ns_per_ray", "time per ray ∝ n^"),
     ]);
-    for (i, c) in COMPARED.iter().enumerate() {
+    for (i, c) in s.compared.iter().enumerate() {
         table.row(vec![
             Cell::Text(c.label()),
             Cell::Number(s.build_slopes[i], 2),
@@ -147,8 +171,8 @@ pub fn slopes_table(s: &Scaling) -> Table {
 
 /// Draws `scaling_build.svg` and `scaling_trace.svg` into `out`.
 pub fn plot(s: &Scaling, out: &Path) -> Result<(), String> {
-    let lines = |value: &dyn Fn(&ScalingRow, usize) -> f64, slopes: [f64; 2]| -> Vec<Series> {
-        COMPARED
+    let lines = |value: &dyn Fn(&ScalingRow, usize) -> f64, slopes: &[f64]| -> Vec<Series> {
+        s.compared
             .iter()
             .enumerate()
             .map(|(i, c)| Series {
@@ -166,14 +190,14 @@ pub fn plot(s: &Scaling, out: &Path) -> Result<(), String> {
         "build time against triangles",
         "triangles",
         "build time (ms)",
-        &lines(&|r, i| r.build[i].median * 1e3, s.build_slopes),
+        &lines(&|r, i| r.build[i].median * 1e3, &s.build_slopes),
     )?;
     loglog(
         &out.join("scaling_trace.svg"),
         "trace time per ray against triangles",
         "triangles",
         "ns per ray (1 thread)",
-        &lines(&|r, i| 1e3 / r.mrays[i].median, s.trace_slopes),
+        &lines(&|r, i| 1e3 / r.mrays[i].median, &s.trace_slopes),
     )
 }
 

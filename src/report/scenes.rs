@@ -1,15 +1,20 @@
 //! Per scene: every build variant's time and memory (one thread and all
 //! threads), native tree shape, ray throughput of the compared backends
-//! per ray kind, Embree's stream call, and the time per frame.
+//! per ray kind, each Embree's coherent batch call, and the time per frame.
+//! The compared backends are [`compared`]: native first, then each Embree
+//! present; every figure is kept per backend, in that order, and every
+//! ratio is native over one of the others.
 
 use serde_json::{json, Value};
 
 use super::budget::Budget;
 use super::budget::ALL_BUILDS_UP_TO;
-use super::measure::{mrays_pair, on_threads, ray_sets, time_pair, time_repeats, Timing};
+use super::measure::{
+    mrays_interleaved, on_threads, ray_sets, time_interleaved, time_repeats, Timing,
+};
 use super::table::{Cell, Flag, Measured, Table};
-use crate::accel::config::{BUILD_VARIANTS, COMPARED};
-use crate::accel::{Accel, AccelStats, Backend, BackendConfig};
+use crate::accel::config::{build_variants, compared};
+use crate::accel::{Accel, AccelStats, BackendConfig};
 use crate::render::integrator::{PathSettings, Shading};
 use crate::render::{render, RenderSettings, Silent};
 use crate::scene::Scene;
@@ -23,29 +28,42 @@ pub struct BuildRow {
     pub stats: AccelStats,
 }
 
-/// Throughput of the compared backends ([`COMPARED`]) on one ray kind.
+/// Throughput of the compared backends ([`compared`]) on one ray kind.
 pub struct TraceRow {
     pub kind: &'static str,
     pub rays: usize,
     /// Million rays per second per compared backend, one thread.
-    pub one_thread: [Measured; 2],
-    pub all_threads: [Measured; 2],
+    pub one_thread: Vec<Measured>,
+    pub all_threads: Vec<Measured>,
 }
 
 impl TraceRow {
-    /// native / embree on one thread (greater than 1: native is faster).
-    pub fn ratio(&self) -> f64 {
-        self.one_thread[0].median / self.one_thread[1].median
+    /// native / backend `j` on one thread (greater than 1: native is
+    /// faster).
+    pub fn ratio(&self, j: usize) -> f64 {
+        self.one_thread[0].median / self.one_thread[j].median
     }
 
-    pub fn ratio_all_threads(&self) -> f64 {
-        self.all_threads[0].median / self.all_threads[1].median
+    pub fn ratio_all_threads(&self, j: usize) -> f64 {
+        self.all_threads[0].median / self.all_threads[j].median
     }
 
-    /// Whether either backend traced fewer rays per second on all threads
-    /// than on one.
-    pub fn below_one_thread(&self) -> bool {
-        (0..2).any(|i| self.all_threads[i].median < self.one_thread[i].median)
+    /// The two figures `ratio(j)` rests on.
+    pub fn pair(&self, j: usize, all: bool) -> [Measured; 2] {
+        let v = if all {
+            &self.all_threads
+        } else {
+            &self.one_thread
+        };
+        [v[0], v[j]]
+    }
+
+    /// Whether native or backend `j` traced fewer rays per second on all
+    /// threads than on one.
+    pub fn below_one_thread(&self, j: usize) -> bool {
+        [0, j]
+            .iter()
+            .any(|&i| self.all_threads[i].median < self.one_thread[i].median)
     }
 }
 
@@ -56,14 +74,17 @@ pub struct SceneResult {
     pub primitives: usize,
     pub triangles: usize,
     pub threads: usize,
+    /// The compared backends, native first: the order of every per-backend
+    /// vector below.
+    pub compared: Vec<BackendConfig>,
     pub builds: Vec<BuildRow>,
     pub traces: Vec<TraceRow>,
-    /// Embree's stream call and its single-ray calls on the camera rays.
-    pub stream: Measured,
-    pub single: Measured,
+    /// Per compared backend: its coherent batch call
+    /// ([`Accel::closest_hits`]) on the camera rays, one thread.
+    pub batch: Vec<Measured>,
     /// Frame: width, height, spp; seconds per compared backend.
     pub frame: (u32, u32, u32),
-    pub frame_seconds: [Timing; 2],
+    pub frame_seconds: Vec<Timing>,
 }
 
 impl SceneResult {
@@ -72,10 +93,20 @@ impl SceneResult {
         self.builds.iter().find(|b| b.config == *config)
     }
 
-    /// Embree's time per frame over native's (greater than 1: native is
-    /// faster).
-    pub fn frame_ratio(&self) -> f64 {
-        self.frame_seconds[1].median / self.frame_seconds[0].median
+    /// The index of `config` among the compared backends.
+    pub fn index(&self, config: &BackendConfig) -> Option<usize> {
+        self.compared.iter().position(|c| c == config)
+    }
+
+    /// Backend `j`'s time per frame over native's (greater than 1: native
+    /// is faster).
+    pub fn frame_ratio(&self, j: usize) -> f64 {
+        self.frame_seconds[j].median / self.frame_seconds[0].median
+    }
+
+    /// The two frame times `frame_ratio(j)` rests on.
+    pub fn frame_pair(&self, j: usize) -> [Measured; 2] {
+        [0, j].map(|i| Measured::seconds(&self.frame_seconds[i]))
     }
 }
 
@@ -102,13 +133,14 @@ pub fn measure(
     budget: &Budget,
     threads: usize,
 ) -> Result<SceneResult, String> {
+    let compared = compared();
     let mut builds = Vec::new();
-    let variants: &[BackendConfig] = if scene.primitive_count() <= ALL_BUILDS_UP_TO {
-        &BUILD_VARIANTS
+    let variants = if scene.primitive_count() <= ALL_BUILDS_UP_TO {
+        build_variants()
     } else {
-        &COMPARED
+        compared.clone()
     };
-    for config in variants {
+    for config in &variants {
         builds.push(BuildRow {
             config: *config,
             one_thread: time_build(scene, config, 1, budget.repeats)?,
@@ -120,7 +152,7 @@ pub fn measure(
                 .stats(),
         });
     }
-    let backends = COMPARED
+    let backends = compared
         .iter()
         .map(|c| c.with_threads(threads).build(scene))
         .collect::<Result<Vec<_>, _>>()
@@ -130,8 +162,8 @@ pub fn measure(
         .iter()
         .map(|set| {
             let each = |t: usize| {
-                let pair = [&backends[0], &backends[1]];
-                mrays_pair(pair, &set.rays, set.query, t, budget.repeats)
+                let all: Vec<_> = backends.iter().collect();
+                mrays_interleaved(&all, &set.rays, set.query, t, budget.repeats)
             };
             TraceRow {
                 kind: set.kind,
@@ -141,13 +173,16 @@ pub fn measure(
             }
         })
         .collect::<Vec<_>>();
-    // Embree's stream call on the same camera rays, one thread.
+    // Each backend's batch call on the same camera rays, one thread.
     let camera = &sets[0].rays;
-    let Backend::Embree(embree) = &backends[1] else {
-        return Err("the second compared backend is not Embree".into());
-    };
     let mut answers = Vec::with_capacity(camera.len());
-    let stream = time_repeats(budget.repeats, || embree.closest_hits(camera, &mut answers));
+    let batch = backends
+        .iter()
+        .map(|b| {
+            let t = time_repeats(budget.repeats, || b.closest_hits(camera, &mut answers));
+            Measured::per_second_millions(camera.len(), &t)
+        })
+        .collect();
     let (w, h, spp) = budget.frame;
     let settings = RenderSettings {
         width: w,
@@ -164,7 +199,7 @@ pub fn measure(
     };
     // Interleaved as the rays are: a frame takes a tenth of a second, so
     // back-to-back repeats of one backend caught the machine's drift.
-    let frame_seconds = time_pair(budget.frame_repeats, |i| {
+    let frame_seconds = time_interleaved(backends.len(), budget.frame_repeats, |i| {
         render(scene, &backends[i], &settings, &Silent)
     });
     Ok(SceneResult {
@@ -173,9 +208,9 @@ pub fn measure(
         primitives: scene.primitive_count(),
         triangles: scene.triangle_count(),
         threads,
+        compared,
         builds,
-        stream: Measured::per_second_millions(camera.len(), &stream),
-        single: traces[0].one_thread[1],
+        batch,
         traces,
         frame: (w, h, spp),
         frame_seconds,
@@ -213,34 +248,80 @@ fn builds_table(r: &SceneResult) -> Table {
 
 fn traces_table(r: &SceneResult) -> Table {
     let t = r.threads;
-    let [a, b] = COMPARED.map(|c| c.label());
-    let mut table = Table::new([
-        ("kind", "rays".to_string()),
-        ("rays", "count".to_string()),
-        ("native_mrays", format!("{a} Mrays/s, 1 thread")),
-        ("embree_mrays", format!("{b}, 1 thread")),
-        ("ratio", format!("{a}/{b}")),
-        ("native_mrays_all_threads", format!("{a}, {t} threads")),
-        ("embree_mrays_all_threads", format!("{b}, {t} threads")),
-        ("ratio_all_threads", format!("{a}/{b}")),
-    ]);
+    let labels: Vec<String> = r.compared.iter().map(BackendConfig::label).collect();
+    let mut columns = vec![
+        ("kind".to_string(), "rays".to_string()),
+        ("rays".to_string(), "count".to_string()),
+    ];
+    for (threads, key) in [(1, ""), (t, "_all_threads")] {
+        for l in &labels {
+            let unit = if threads == 1 {
+                "Mrays/s, 1 thread".to_string()
+            } else {
+                format!("{threads} threads")
+            };
+            columns.push((format!("{l}_mrays{key}"), format!("{l} {unit}")));
+        }
+        for l in &labels[1..] {
+            columns.push((
+                format!("native_over_{l}{key}"),
+                format!("{}/{l}", labels[0]),
+            ));
+        }
+    }
+    let mut table = Table::new(columns);
     for row in &r.traces {
-        // A figure on all threads below its one-thread figure is flagged.
-        let below = |i: usize| {
-            Cell::Measured(row.all_threads[i], 2).flagged(
-                (row.all_threads[i].median < row.one_thread[i].median)
-                    .then_some(Flag::BelowOneThread),
-            )
+        let mut cells = vec![Cell::Text(row.kind.into()), Cell::Count(row.rays as u64)];
+        for all in [false, true] {
+            let figures = if all {
+                &row.all_threads
+            } else {
+                &row.one_thread
+            };
+            // A figure on all threads below its one-thread figure is flagged.
+            cells.extend(figures.iter().enumerate().map(|(i, m)| {
+                Cell::Measured(*m, 2).flagged(
+                    (all && m.median < row.one_thread[i].median).then_some(Flag::BelowOneThread),
+                )
+            }));
+            cells.extend((1..labels.len()).map(|j| {
+                let ratio = if all {
+                    row.ratio_all_threads(j)
+                } else {
+                    row.ratio(j)
+                };
+                Cell::ratio_of(ratio, &row.pair(j, all))
+            }));
+        }
+        table.row(cells);
+    }
+    table
+}
+
+/// Each backend's batch call against its own single-ray calls, one thread.
+fn batch_table(r: &SceneResult) -> Table {
+    let mut table = Table::new([
+        ("backend", "backend".to_string()),
+        ("batch_call", "batch call".to_string()),
+        ("batch_mrays", "batch Mrays/s".to_string()),
+        ("single_mrays", "single-ray Mrays/s".to_string()),
+        ("batch_over_single", "batch / single".to_string()),
+    ]);
+    for (i, c) in r.compared.iter().enumerate() {
+        let single = r.traces[0].one_thread[i];
+        let call = match c {
+            BackendConfig::Embree(o) if o.version == crate::accel::embree::EmbreeVersion::V3 => {
+                "rtcIntersect1M stream, coherent flag"
+            }
+            BackendConfig::Embree(_) => "rtcIntersect1 loop, coherent flag",
+            _ => "closest_hit loop",
         };
         table.row(vec![
-            Cell::Text(row.kind.into()),
-            Cell::Count(row.rays as u64),
-            Cell::Measured(row.one_thread[0], 2),
-            Cell::Measured(row.one_thread[1], 2),
-            Cell::ratio_of(row.ratio(), &row.one_thread),
-            below(0),
-            below(1),
-            Cell::ratio_of(row.ratio_all_threads(), &row.all_threads),
+            Cell::Text(c.label()),
+            Cell::Text(call.into()),
+            Cell::Measured(r.batch[i], 2),
+            Cell::Measured(single, 2),
+            Cell::ratio_of(r.batch[i].median / single.median, &[r.batch[i], single]),
         ]);
     }
     table
@@ -248,36 +329,51 @@ fn traces_table(r: &SceneResult) -> Table {
 
 /// The per-scene section: Markdown and the JSON of every scene.
 pub fn section(results: &[SceneResult]) -> (String, Value) {
-    let mut md = String::from("## Build and trace, per scene\n\nMedians of warmed-up repeats with their range (min–max); ⚠ marks figures whose repeats spread by more than 10% (and ratios of such figures), ↓ a figure on all threads worse than the same on one thread. Ratios are native / Embree throughput: greater than 1 means native is faster.\n\n");
+    let mut md = String::from("## Build and trace, per scene\n\nMedians of warmed-up repeats with their range (min–max); ⚠ marks figures whose repeats spread by more than 10% (and ratios of such figures), ↓ a figure on all threads worse than the same on one thread. Ratios are native / each Embree's throughput: greater than 1 means native is faster.\n\n");
     let mut scenes = Vec::new();
     for r in results {
         let builds = builds_table(r);
         let traces = traces_table(r);
+        let batch = batch_table(r);
         let (w, h, spp) = r.frame;
-        let frame = [0, 1].map(|i| r.frame_seconds[i].median);
+        let frames: Vec<String> = r
+            .compared
+            .iter()
+            .enumerate()
+            .map(|(i, c)| {
+                let ratio = if i == 0 {
+                    String::new()
+                } else {
+                    format!(" ({:.2}x)", r.frame_ratio(i))
+                };
+                format!("{} {:.3} s{ratio}", c.label(), r.frame_seconds[i].median)
+            })
+            .collect();
         md += &format!(
-            "### {} ({}: {} primitives)\n\n{}\n{}\nEmbree ray stream (`rtcIntersect1M`, coherent flag) on the same camera rays, 1 thread: {:.2} Mrays/s against {:.2} with single-ray calls ({:.2}x).\n\nTime per frame ({w}x{h}, {spp} spp, 3 bounces, light sampling, {} threads): native {:.3} s, embree {:.3} s (Embree's time / native's {:.2}x: greater than 1 means native is faster).\n\n",
+            "### {} ({}: {} primitives)\n\n{}\n{}\nBatch calls on the same camera rays, 1 thread:\n\n{}\nTime per frame ({w}x{h}, {spp} spp, 3 bounces, light sampling, {} threads): {} (in parentheses each Embree's time / native's: greater than 1 means native is faster).\n\n",
             r.scene,
             r.size,
             r.primitives,
             builds.markdown(),
             traces.markdown(),
-            r.stream.median,
-            r.single.median,
-            r.stream.median / r.single.median,
+            batch.markdown(),
             r.threads,
-            frame[0],
-            frame[1],
-            r.frame_ratio(),
+            frames.join(", "),
         );
+        let frame_json: serde_json::Map<String, Value> = r
+            .compared
+            .iter()
+            .zip(&r.frame_seconds)
+            .map(|(c, t)| (c.label(), json!(t.median)))
+            .collect();
         scenes.push(json!({
             "scene": r.scene,
             "size": r.size,
             "primitives": r.primitives,
             "builds": builds.json(),
             "traces": traces.json(),
-            "camera_stream": {"embree_stream_mrays": r.stream.median, "embree_single_mrays": r.single.median},
-            "frame_seconds": {"native": frame[0], "embree": frame[1]},
+            "camera_batch": batch.json(),
+            "frame_seconds": frame_json,
         }));
     }
     (md, Value::Array(scenes))

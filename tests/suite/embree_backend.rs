@@ -1,9 +1,12 @@
-//! The Embree backend behind the same trait: hit-level agreement with the
-//! native BVH, the same images, and Embree's errors as Rust errors.
+//! The Embree backends (Embree 3 and Embree 4, both in one process) behind
+//! the same trait: hit-level agreement with the native BVH, the same
+//! images, and Embree's errors as Rust errors.
 
-use hybrid::accel::embree::{invalid_buffer_error, BuildQuality, EmbreeAccel, EmbreeOptions};
+use hybrid::accel::embree::{invalid_buffer_error, BuildQuality, EmbreeOptions, EmbreeVersion};
 use hybrid::accel::native::{NativeBvh, NativeOptions};
+use hybrid::accel::BackendConfig;
 use hybrid::accel::{Accel, AccelError, Ray, TraceCounters};
+use hybrid::choice::Choice;
 use hybrid::parity::rays;
 use hybrid::render::integrator::{PathSettings, Shading};
 use hybrid::render::{render, RenderSettings, Silent};
@@ -27,25 +30,80 @@ const SCENES: &[&str] = &[
     "sky/bunny.dae",
 ];
 
+/// The Embree versions this machine has. Under CI (`CI` set) both must
+/// load: a missing one fails there rather than shortening the tests.
+fn versions() -> Vec<EmbreeVersion> {
+    EmbreeVersion::ALL
+        .iter()
+        .copied()
+        .filter(|v| match v.available() {
+            Ok(()) => true,
+            Err(why) if std::env::var_os("CI").is_some() => {
+                panic!("{} is required under CI: {why}", v.name())
+            }
+            Err(why) => {
+                println!("skipping {}: {why}", v.name());
+                false
+            }
+        })
+        .collect()
+}
+
+fn embree(
+    version: EmbreeVersion,
+    quality: BuildQuality,
+    robust: bool,
+    threads: usize,
+) -> BackendConfig {
+    BackendConfig::Embree(EmbreeOptions {
+        version,
+        quality,
+        robust,
+        threads,
+    })
+}
+
+#[test]
+fn both_embree_versions_load_side_by_side_and_report_their_version() {
+    let scene = common::default_scene();
+    let present = versions();
+    let built: Vec<_> = present
+        .iter()
+        .map(|&v| {
+            embree(v, BuildQuality::Medium, false, 0)
+                .build(&scene)
+                .expect("builds")
+        })
+        .collect();
+    for (v, accel) in present.iter().zip(&built) {
+        let details = accel.stats().details;
+        println!("{}: {details}", v.name());
+        let major = match v {
+            EmbreeVersion::V3 => "Embree 3.",
+            EmbreeVersion::V4 => "Embree 4.",
+        };
+        assert!(details.starts_with(major), "{} reports {details}", v.name());
+        assert_eq!(accel.stats().backend, v.name());
+    }
+}
+
 #[test]
 fn embree_agrees_with_native_on_random_rays_in_every_shared_scene() {
     for rel in SCENES {
         let scene = scene_or_skip!(rel);
         let native = NativeBvh::build(&scene, &NativeOptions::default()).expect("native builds");
-        for quality in [BuildQuality::Low, BuildQuality::High] {
-            let embree = EmbreeAccel::build(
-                &scene,
-                &EmbreeOptions {
-                    quality,
-                    ..EmbreeOptions::default()
-                },
-            )
-            .expect("embree builds");
+        for (version, quality) in versions()
+            .into_iter()
+            .flat_map(|v| [(v, BuildQuality::Low), (v, BuildQuality::High)])
+        {
+            let embree = embree(version, quality, false, 0)
+                .build(&scene)
+                .expect("embree builds");
             let rays = rays::random_rays(&scene, 10_000, 21);
             let a = |r: &Ray| native.closest_hit(r, &mut TraceCounters::default());
             let b = |r: &Ray| embree.closest_hit(r, &mut TraceCounters::default());
             assert_agree(
-                &format!("{rel}: native vs embree ({quality:?})"),
+                &format!("{rel}: native vs {} ({quality:?})", version.name()),
                 &a,
                 &b,
                 &rays,
@@ -81,7 +139,24 @@ fn embree_agrees_with_native_on_random_rays_in_every_shared_scene() {
 fn same_image(rel: &str, shading: Shading, spp: u32, max_rmse: f64) {
     let scene = scene_or_skip!(rel);
     let native = NativeBvh::build(&scene, &NativeOptions::default()).expect("native builds");
-    let embree = EmbreeAccel::build(&scene, &EmbreeOptions::default()).expect("embree builds");
+    for version in versions() {
+        let embree = embree(version, BuildQuality::Medium, false, 0)
+            .build(&scene)
+            .expect("embree builds");
+        same_image_on(rel, version, &native, &embree, shading, spp, max_rmse);
+    }
+}
+
+fn same_image_on(
+    rel: &str,
+    version: EmbreeVersion,
+    native: &NativeBvh,
+    embree: &hybrid::accel::Backend,
+    shading: Shading,
+    spp: u32,
+    max_rmse: f64,
+) {
+    let scene = scene_or_skip!(rel);
     let settings = RenderSettings {
         width: 64,
         height: 48,
@@ -91,8 +166,8 @@ fn same_image(rel: &str, shading: Shading, spp: u32, max_rmse: f64) {
         shading,
         ..RenderSettings::default()
     };
-    let a = render(&scene, &native, &settings, &Silent).film;
-    let b = render(&scene, &embree, &settings, &Silent).film;
+    let a = render(&scene, native, &settings, &Silent).film;
+    let b = render(&scene, embree, &settings, &Silent).film;
     let rmse = common::rmse(&a.pixels, &b.pixels);
     let same_byte = a
         .to_rgb8(hybrid::render::film::ToneMap::Reference)
@@ -101,17 +176,18 @@ fn same_image(rel: &str, shading: Shading, spp: u32, max_rmse: f64) {
         .filter(|(x, y)| (**x as i32 - *y as i32).abs() <= 1)
         .count() as f64
         / (a.pixels.len() * 3) as f64;
+    let v = version.name();
     println!(
-        "{rel} {shading:?}: RMSE {rmse:.5}, {:.2}% of channels within 1/255",
+        "{rel} {shading:?} native vs {v}: RMSE {rmse:.5}, {:.2}% of channels within 1/255",
         same_byte * 100.0
     );
     assert!(
         rmse <= max_rmse,
-        "{rel}: native and embree images differ by RMSE {rmse:.5} > {max_rmse}"
+        "{rel}: native and {v} images differ by RMSE {rmse:.5} > {max_rmse}"
     );
     assert!(
         same_byte >= 0.99,
-        "{rel}: only {:.2}% of channels within 1/255",
+        "{rel}: native vs {v}: only {:.2}% of channels within 1/255",
         same_byte * 100.0
     );
 }
@@ -135,54 +211,61 @@ fn native_and_embree_render_the_same_path_traced_images() {
 
 #[test]
 fn embree_errors_come_back_as_rust_errors_with_embrees_message() {
-    match invalid_buffer_error() {
-        Err(AccelError::Embree(message)) => {
-            println!("embree said: {message}");
-            assert!(
-                message.contains("invalid argument") || message.contains("aligned"),
-                "unexpected message: {message}"
-            );
+    for version in versions() {
+        match invalid_buffer_error(version) {
+            Err(AccelError::Embree(message)) => {
+                println!("{} said: {message}", version.name());
+                assert!(
+                    message.contains("invalid argument") || message.contains("aligned"),
+                    "unexpected message: {message}"
+                );
+            }
+            Err(other) => panic!("not an Embree error: {other}"),
+            Ok(()) => panic!("a misaligned buffer was accepted by {}", version.name()),
         }
-        Err(other) => panic!("not an Embree error: {other}"),
-        Ok(()) => panic!("a misaligned buffer was accepted"),
     }
 }
 
 #[test]
 fn backends_can_be_dropped_in_any_order() {
     let scene = common::default_scene();
-    let a = EmbreeAccel::build(
-        &scene,
-        &EmbreeOptions {
-            robust: true,
-            ..EmbreeOptions::default()
-        },
-    )
-    .unwrap();
-    let b = EmbreeAccel::build(
-        &scene,
-        &EmbreeOptions {
-            quality: BuildQuality::High,
-            threads: 1,
-            ..EmbreeOptions::default()
-        },
-    )
-    .unwrap();
-    // Straight into the default box's back wall.
-    let ray = Ray::new(glam::Vec3::new(0.0, 1.0, 3.0), -glam::Vec3::Z);
-    assert!(a.closest_hit(&ray, &mut TraceCounters::default()).is_some());
-    drop(a);
-    assert!(
-        b.closest_hit(&ray, &mut TraceCounters::default()).is_some(),
-        "dropping one scene broke another"
-    );
-    drop(b);
+    let present = versions();
+    // Each version with each, the other's scenes alive or not.
+    for &first in &present {
+        for &second in &present {
+            let a = embree(first, BuildQuality::Medium, true, 0)
+                .build(&scene)
+                .unwrap();
+            let b = embree(second, BuildQuality::High, false, 1)
+                .build(&scene)
+                .unwrap();
+            // Straight into the default box's back wall.
+            let ray = Ray::new(glam::Vec3::new(0.0, 1.0, 3.0), -glam::Vec3::Z);
+            assert!(a.closest_hit(&ray, &mut TraceCounters::default()).is_some());
+            drop(a);
+            assert!(
+                b.closest_hit(&ray, &mut TraceCounters::default()).is_some(),
+                "dropping a {} scene broke a {} one",
+                first.name(),
+                second.name()
+            );
+            drop(b);
+        }
+    }
 }
 
 #[test]
-fn embree_stream_calls_answer_like_single_rays() {
+fn embree_batch_calls_answer_like_single_rays() {
+    for version in versions() {
+        batch_answers_like_single_rays(version);
+    }
+}
+
+fn batch_answers_like_single_rays(version: EmbreeVersion) {
     let scene = scene_or_skip!("sky/CBspheres_lambertian.dae");
-    let embree = EmbreeAccel::build(&scene, &EmbreeOptions::default()).unwrap();
+    let embree = embree(version, BuildQuality::Medium, false, 0)
+        .build(&scene)
+        .unwrap();
     let mut set = rays::camera_rays(&scene, 5_000, 4);
     set.push(Ray::new(glam::Vec3::splat(f32::NAN), glam::Vec3::Z));
     let mut stream = Vec::new();
@@ -208,7 +291,8 @@ fn embree_stream_calls_answer_like_single_rays() {
         }
     }
     println!(
-        "stream vs single: {exact} of {} answers bit-identical",
+        "{}: batch vs single: {exact} of {} answers bit-identical",
+        version.name(),
         set.len()
     );
 }
@@ -226,7 +310,7 @@ fn the_default_render_has_no_junction_pixels_only_one_backend_darkens() {
         shading: Shading::Path(PathSettings::default()),
         ..RenderSettings::default()
     };
-    let images: Vec<(String, Vec<[u8; 3]>)> = hybrid::accel::config::PARITY_CANDIDATES
+    let images: Vec<(String, Vec<[u8; 3]>)> = hybrid::accel::config::parity_candidates()
         .iter()
         .chain([&hybrid::accel::BackendConfig::NATIVE_WATERTIGHT])
         .map(|config| {

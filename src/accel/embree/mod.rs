@@ -1,5 +1,8 @@
-//! The Embree backend: the scene's triangles and spheres in an Embree scene,
-//! behind the same [`Accel`] trait as the native BVH.
+//! The Embree backends: the scene's triangles and spheres in an Embree
+//! scene, behind the same [`Accel`] trait as the native BVH, for Embree 3
+//! and Embree 4 in one binary, each loaded at run time (`library.rs` says
+//! why). [`EmbreeAccel`] is generic over the version's function table; the
+//! safe layer over both is `ffi.rs`.
 //!
 //! Mapping to the trait's conventions:
 //! - geometry 0 holds the triangles (primitive id = Embree's primID), a
@@ -18,19 +21,82 @@
 //! (the `-t` of the program); queries run on the calling (rayon) threads, so
 //! the two pools never run at once.
 
-mod sys;
+mod ffi;
+mod library;
+#[cfg(hybrid_embree3)]
+mod sys3;
+#[cfg(not(hybrid_embree3))]
+#[path = "sys3_missing.rs"]
+mod sys3;
+mod sys4;
 
 use std::time::Instant;
 
 use glam::Vec3;
 
-pub use self::sys::BuildQuality;
+use crate::choice::Choice;
+
+use self::ffi::{Api, Device, Scene as EmbreeScene, SceneBuilder};
+use self::library::RawHit;
+pub use self::sys3::Embree3;
+pub use self::sys4::Embree4;
 use super::{Accel, AccelError, AccelStats, Hit, Ray, TraceCounters};
 use crate::scene::{unit, Scene};
+
+/// Embree's build quality.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum BuildQuality {
+    Low,
+    #[default]
+    Medium,
+    High,
+}
+
+crate::choice!(BuildQuality { Low => "low", Medium => "medium", High => "high" });
+
+/// Which Embree: Debian 12's 3.13.5, or 4.x (Debian 13's, Intel's, or the
+/// `embreex` wheel's that `scripts/setup.sh` installs on Debian 12).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum EmbreeVersion {
+    #[default]
+    V3,
+    V4,
+}
+
+crate::choice!(EmbreeVersion { V3 => "embree3", V4 => "embree4" });
+
+impl EmbreeVersion {
+    /// `Ok` when this version's library loads here, else the line to show
+    /// the user (what to install).
+    pub fn available(self) -> Result<(), String> {
+        match self {
+            EmbreeVersion::V3 => sys3::api().map(|_| ()),
+            EmbreeVersion::V4 => sys4::api().map(|_| ()),
+        }
+    }
+
+    /// The newest version present (`--accel embree`): 4 when it loads,
+    /// else 3.
+    pub fn newest() -> EmbreeVersion {
+        if EmbreeVersion::V4.available().is_ok() {
+            EmbreeVersion::V4
+        } else {
+            EmbreeVersion::V3
+        }
+    }
+}
+
+/// Scene options.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct SceneOptions {
+    pub quality: BuildQuality,
+    pub robust: bool,
+}
 
 /// Options of the Embree backend.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct EmbreeOptions {
+    pub version: EmbreeVersion,
     pub quality: BuildQuality,
     /// Embree's `RTC_SCENE_FLAG_ROBUST`: slower, avoids optimizations that
     /// reduce arithmetic accuracy.
@@ -41,6 +107,7 @@ pub struct EmbreeOptions {
 
 impl EmbreeOptions {
     pub const DEFAULT: EmbreeOptions = EmbreeOptions {
+        version: EmbreeVersion::V3,
         quality: BuildQuality::Medium,
         robust: false,
         threads: 0,
@@ -53,11 +120,31 @@ impl Default for EmbreeOptions {
     }
 }
 
-pub struct EmbreeAccel<'s> {
+/// One Embree version's table, as the backend is generic over it.
+pub trait Version: Api + Sized {
+    const VERSION: EmbreeVersion;
+    fn api() -> Result<&'static Self, String>;
+}
+
+impl Version for Embree3 {
+    const VERSION: EmbreeVersion = EmbreeVersion::V3;
+    fn api() -> Result<&'static Self, String> {
+        sys3::api()
+    }
+}
+
+impl Version for Embree4 {
+    const VERSION: EmbreeVersion = EmbreeVersion::V4;
+    fn api() -> Result<&'static Self, String> {
+        sys4::api()
+    }
+}
+
+pub struct EmbreeAccel<'s, V: Version> {
     // Field order is drop order; Embree reference-counts, so any order is
     // safe, this one is merely tidy.
-    scene: sys::Scene<'s>,
-    device: sys::Device,
+    scene: EmbreeScene<'s, V>,
+    device: Device<V>,
     triangle_count: u32,
     sphere_geometry: u32,
     /// -1 when Embree's triangle normal is `(v2 - v0) x (v1 - v0)`.
@@ -67,21 +154,24 @@ pub struct EmbreeAccel<'s> {
     primitives: usize,
 }
 
-impl<'s> EmbreeAccel<'s> {
-    pub fn build(scene: &'s Scene, options: &EmbreeOptions) -> Result<EmbreeAccel<'s>, AccelError> {
+impl<'s, V: Version> EmbreeAccel<'s, V> {
+    pub fn build(
+        scene: &'s Scene,
+        options: &EmbreeOptions,
+    ) -> Result<EmbreeAccel<'s, V>, AccelError> {
+        let api = V::api().map_err(AccelError::Unavailable)?;
         let start = Instant::now();
         let config = if options.threads > 0 {
             format!("threads={}", options.threads)
         } else {
             String::new()
         };
-        let device = sys::Device::new(&config).map_err(AccelError::Embree)?;
-        let scene_options = sys::SceneOptions {
+        let device = Device::new(api, &config).map_err(AccelError::Embree)?;
+        let scene_options = SceneOptions {
             quality: options.quality,
             robust: options.robust,
         };
-        let mut builder =
-            sys::SceneBuilder::new(&device, scene_options).map_err(AccelError::Embree)?;
+        let mut builder = SceneBuilder::new(&device, scene_options).map_err(AccelError::Embree)?;
         if !scene.mesh.is_empty() {
             let vertices: Vec<[f32; 3]> =
                 scene.mesh.positions.iter().map(|p| p.to_array()).collect();
@@ -108,7 +198,10 @@ impl<'s> EmbreeAccel<'s> {
             triangle_count: scene.mesh.len() as u32,
             sphere_geometry,
             normal_sign: 1.0,
-            options: *options,
+            options: EmbreeOptions {
+                version: V::VERSION,
+                ..*options
+            },
             build_ms,
             primitives: scene.primitive_count(),
         };
@@ -129,10 +222,8 @@ impl<'s> EmbreeAccel<'s> {
             let centroid = (a + b + c) / 3.0;
             let n = unit(n);
             let origin = centroid + n * 1e-3 * (b - a).length().max(1e-6);
-            if let Some(hit) =
-                self.scene
-                    .intersect(origin.to_array(), (-n).to_array(), 0.0, f32::INFINITY)
-            {
+            let probe = (origin.to_array(), (-n).to_array(), 0.0, f32::INFINITY);
+            if let Some(hit) = self.scene.intersect(probe) {
                 if hit.primitive == i as u32 && hit.geometry == 0 {
                     return if Vec3::from(hit.ng).dot(n) < 0.0 {
                         -1.0
@@ -160,33 +251,10 @@ impl<'s> EmbreeAccel<'s> {
             if self.options.robust { ", robust" } else { "" }
         )
     }
-}
-
-impl EmbreeAccel<'_> {
-    /// Closest hits of a batch of rays through one Embree stream call
-    /// (measured against single-ray calls in the report). Untraceable rays
-    /// are misses, as in [`Accel::closest_hit`].
-    pub fn closest_hits(&self, rays: &[Ray], out: &mut Vec<Option<Hit>>) {
-        let batch: Vec<([f32; 3], [f32; 3], f32, f32)> = rays
-            .iter()
-            .map(|r| {
-                if r.is_traceable() {
-                    (r.origin.to_array(), r.dir.to_array(), r.t_min, r.t_max)
-                } else {
-                    // An empty interval: Embree reports no hit.
-                    ([0.0; 3], [0.0, 0.0, 1.0], 1.0, 0.0)
-                }
-            })
-            .collect();
-        let mut raw = Vec::with_capacity(rays.len());
-        self.scene.intersect_stream(&batch, &mut raw);
-        out.clear();
-        out.extend(raw.iter().map(|h| h.as_ref().map(|h| self.to_hit(h))));
-    }
 
     /// Embree's answer in the trait's conventions.
     #[inline]
-    fn to_hit(&self, h: &sys::RawHit) -> Hit {
+    fn to_hit(&self, h: &RawHit) -> Hit {
         let ng = Vec3::from(h.ng);
         if h.geometry == self.sphere_geometry {
             return Hit {
@@ -207,19 +275,30 @@ impl EmbreeAccel<'_> {
     }
 }
 
-impl Accel for EmbreeAccel<'_> {
+/// A ray as Embree takes it; untraceable rays become an empty interval, so
+/// that Embree reports a miss as every backend does.
+#[inline]
+fn raw_ray(r: &Ray) -> ffi::RawRay {
+    if r.is_traceable() {
+        (r.origin.to_array(), r.dir.to_array(), r.t_min, r.t_max)
+    } else {
+        ([0.0; 3], [0.0, 0.0, 1.0], 1.0, 0.0)
+    }
+}
+
+impl<V: Version> Accel for EmbreeAccel<'_, V> {
     #[inline]
     fn closest_hit(&self, ray: &Ray, counters: &mut TraceCounters) -> Option<Hit> {
         counters.rays += 1;
         if !ray.is_traceable() {
             return None;
         }
-        let h = self.scene.intersect(
+        let h = self.scene.intersect((
             ray.origin.to_array(),
             ray.dir.to_array(),
             ray.t_min,
             ray.t_max,
-        )?;
+        ))?;
         Some(self.to_hit(&h))
     }
 
@@ -229,17 +308,28 @@ impl Accel for EmbreeAccel<'_> {
         if !ray.is_traceable() {
             return false;
         }
-        self.scene.occluded(
+        self.scene.occluded((
             ray.origin.to_array(),
             ray.dir.to_array(),
             ray.t_min,
             ray.t_max,
-        )
+        ))
+    }
+
+    /// One call of the version's fastest coherent mode for the whole batch
+    /// (Embree 3: the `rtcIntersect1M` stream; Embree 4: single rays with
+    /// the coherent flag).
+    fn closest_hits(&self, rays: &[Ray], out: &mut Vec<Option<Hit>>) {
+        let batch: Vec<ffi::RawRay> = rays.iter().map(raw_ray).collect();
+        let mut raw = Vec::with_capacity(rays.len());
+        self.scene.intersect_coherent(&batch, &mut raw);
+        out.clear();
+        out.extend(raw.iter().map(|h| h.as_ref().map(|h| self.to_hit(h))));
     }
 
     fn stats(&self) -> AccelStats {
         AccelStats {
-            backend: "embree".into(),
+            backend: V::VERSION.name().into(),
             primitives: self.primitives,
             build_ms: self.build_ms,
             memory_bytes: self.device.memory_bytes(),
@@ -252,7 +342,14 @@ impl Accel for EmbreeAccel<'_> {
 /// Proves the error path: Embree is handed a misaligned shared buffer and
 /// must answer with an error, which comes back here as a Rust `Err`
 /// carrying Embree's message.
-pub fn invalid_buffer_error() -> Result<(), AccelError> {
-    let device = sys::Device::new("").map_err(AccelError::Embree)?;
-    sys::provoke_invalid_buffer(&device).map_err(AccelError::Embree)
+pub fn invalid_buffer_error(version: EmbreeVersion) -> Result<(), AccelError> {
+    fn provoke<V: Version>() -> Result<(), AccelError> {
+        let device = Device::new(V::api().map_err(AccelError::Unavailable)?, "")
+            .map_err(AccelError::Embree)?;
+        ffi::provoke_invalid_buffer(&device).map_err(AccelError::Embree)
+    }
+    match version {
+        EmbreeVersion::V3 => provoke::<Embree3>(),
+        EmbreeVersion::V4 => provoke::<Embree4>(),
+    }
 }

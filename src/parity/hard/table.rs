@@ -1,18 +1,19 @@
 //! The hard-case table: one row per case, one column per configuration.
 
 use super::CaseReport;
-use crate::accel::config::HARD_CASE_MODES;
+use crate::accel::config::hard_case_modes;
 
 /// The hard-case table as Markdown.
 pub fn format_table(reports: &[CaseReport]) -> String {
     let mut out = String::from("| case | counted | ");
-    out += &HARD_CASE_MODES
+    let modes = hard_case_modes();
+    out += &modes
         .iter()
         .map(|m| m.label())
         .collect::<Vec<_>>()
         .join(" | ");
     out += " |\n|---|---|";
-    out += &"---|".repeat(HARD_CASE_MODES.len());
+    out += &"---|".repeat(modes.len());
     out += "\n";
     for r in reports {
         out += &format!(
