@@ -5,7 +5,7 @@
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
 
-use hybrid::accel::config::{BackendConfig, BUILD_VARIANTS, COMPARED};
+use hybrid::accel::config::{build_variants, compared, BackendConfig};
 use hybrid::report::budget::SCENES;
 use hybrid::report::measure::{ray_sets, trace_all};
 use hybrid::scene::Scene;
@@ -35,7 +35,7 @@ fn builds(c: &mut Criterion) {
     group.sample_size(10);
     for (name, scene) in scenes() {
         group.throughput(Throughput::Elements(scene.primitive_count() as u64));
-        for config in &BUILD_VARIANTS {
+        for config in &build_variants() {
             let label = config.label().replace(' ', "-");
             group.bench_with_input(BenchmarkId::new(label, &name), &scene, |b, s| {
                 b.iter(|| config.build(s).expect("builds"))
@@ -49,7 +49,7 @@ fn traces(c: &mut Criterion) {
     let mut group = c.benchmark_group("trace");
     group.sample_size(20);
     for (name, scene) in scenes() {
-        let backends: Vec<_> = COMPARED
+        let backends: Vec<_> = compared()
             .iter()
             .map(|c| (c.kind(), c.build(&scene).expect("builds")))
             .collect();

@@ -5,7 +5,7 @@
 
 use std::time::Instant;
 
-use hybrid::accel::config::COMPARED;
+use hybrid::accel::config::compared;
 use hybrid::accel::{Accel, BackendConfig};
 use hybrid::report::measure::{on_threads, ray_sets, trace_all, Timing};
 use hybrid::scene::{collada, NormalMode};
@@ -32,7 +32,8 @@ fn main() {
             } else {
                 collada::load(path.as_ref(), NormalMode::Smooth).expect("scene loads")
             };
-            let builds: Vec<Timing> = COMPARED
+            let compared = compared();
+            let builds: Vec<Timing> = compared
                 .iter()
                 .map(|c| {
                     let c = c.with_threads(1);
@@ -45,21 +46,32 @@ fn main() {
                     Timing::from_samples(v[1..].to_vec())
                 })
                 .collect();
-            let backends: Vec<_> = COMPARED
+            let backends: Vec<_> = compared
                 .iter()
                 .map(|c| c.with_threads(1).build(&scene).expect("builds"))
                 .collect();
+            let others: Vec<String> = compared[1..]
+                .iter()
+                .zip(&builds[1..])
+                .map(|(c, b)| {
+                    format!(
+                        "{} {:.2} ms ({:.2}x)",
+                        c.label(),
+                        b.median * 1e3,
+                        b.median / builds[0].median
+                    )
+                })
+                .collect();
             println!(
-                "{path}: {} triangles; build native {:.2} ms, embree {:.2} ms: {:.2}x ; SAH cost {:.2}",
+                "{path}: {} triangles; build native {:.2} ms, {}; SAH cost {:.2}",
                 scene.triangle_count(),
                 builds[0].median * 1e3,
-                builds[1].median * 1e3,
-                builds[1].median / builds[0].median,
+                others.join(", "),
                 backends[0].stats().sah_cost
             );
             let finder = BackendConfig::NATIVE.build(&scene).expect("builds");
             for set in ray_sets(&scene, &finder, rays) {
-                let mut times = [Vec::new(), Vec::new()];
+                let mut times = vec![Vec::new(); backends.len()];
                 for round in 0..repeats + 1 {
                     for (i, b) in backends.iter().enumerate() {
                         let t = Instant::now();
@@ -69,18 +81,29 @@ fn main() {
                         }
                     }
                 }
-                let [n, e] = times.map(Timing::from_samples);
+                let t: Vec<Timing> = times.into_iter().map(Timing::from_samples).collect();
                 let m = |t: &Timing| set.rays.len() as f64 / t.median / 1e6;
                 let spread = |t: &Timing| 100.0 * (t.max - t.min) / t.median;
+                let others: Vec<String> = compared[1..]
+                    .iter()
+                    .zip(&t[1..])
+                    .map(|(c, e)| {
+                        format!(
+                            "{} {:7.2} (±{:.0}%): {:.2}x",
+                            c.label(),
+                            m(e),
+                            spread(e),
+                            m(&t[0]) / m(e)
+                        )
+                    })
+                    .collect();
                 println!(
-                    "  {:10} {:>8} rays: native {:7.2} Mrays/s (±{:.0}%), embree {:7.2} (±{:.0}%): {:.2}x",
+                    "  {:10} {:>8} rays: native {:7.2} Mrays/s (±{:.0}%), {}",
                     set.kind,
                     set.rays.len(),
-                    m(&n),
-                    spread(&n),
-                    m(&e),
-                    spread(&e),
-                    m(&n) / m(&e)
+                    m(&t[0]),
+                    spread(&t[0]),
+                    others.join(", ")
                 );
             }
         }

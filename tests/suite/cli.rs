@@ -228,7 +228,9 @@ fn parity_command_prints_its_tables_and_passes_on_a_shared_scene() {
         assert!(stdout.contains(kind), "no '{kind}' table: {stdout}");
     }
     assert!(
-        stdout.contains("| embree |") && stdout.contains("| none (brute force) |"),
+        stdout.contains("| embree3 |")
+            && stdout.contains("| embree4 |")
+            && stdout.contains("| none (brute force) |"),
         "{stdout}"
     );
     let o = hybrid(&["parity", "--hard", "--rays", "200"], &dir);

@@ -31,19 +31,23 @@ fn quick_report_writes_every_section_and_the_headline_figures() {
     ] {
         assert!(md.contains(section), "report.md lacks '{section}'");
     }
-    // The verdict opens the report, before any table.
-    let verdict = md
-        .split("\n\n")
-        .find(|p| p.starts_with("On one thread"))
-        .expect("a verdict paragraph");
-    assert!(
-        md.find(verdict) < md.find("## Headline"),
-        "the verdict does not come before the headline"
-    );
-    assert!(
-        verdict.contains("greater than 1 means native is faster"),
-        "{verdict}"
-    );
+    // The verdict opens the report, before any table: one paragraph per
+    // Embree present.
+    let opening = &md[..md.find("## Headline").expect("a headline")];
+    let paragraph = |rival: &str| {
+        opening
+            .split("\n\n")
+            .find(|p| p.starts_with(&format!("Against {rival},")))
+            .unwrap_or_else(|| panic!("no verdict paragraph against {rival}: {opening}"))
+    };
+    let rivals = ["embree3", "embree4"];
+    for rival in rivals {
+        assert!(
+            paragraph(rival).contains("greater than 1 means native is faster"),
+            "{}",
+            paragraph(rival)
+        );
+    }
     let json: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).unwrap())
             .expect("valid JSON");
@@ -61,44 +65,56 @@ fn quick_report_writes_every_section_and_the_headline_figures() {
         assert!(x.is_finite() && x > 0.0, "{what} = {x}");
         x
     };
-    for (i, s) in scenes.iter().enumerate() {
-        let name = s["scene"].as_str().unwrap();
-        let column = format!("scene_{i}");
-        positive(
-            &row("build, 1 thread")[&column],
-            &format!("{name} build ratio"),
-        );
-        for t in s["traces"].as_array().expect("traces") {
-            let kind = t["kind"].as_str().unwrap();
-            let n = positive(&t["native_mrays"], &format!("{name} {kind} native"));
-            let e = positive(&t["embree_mrays"], &format!("{name} {kind} embree"));
-            let ratio = positive(
-                &row(&format!("{kind} rays, 1 thread"))[&column],
-                &format!("{name} {kind} headline ratio"),
+    for rival in rivals {
+        for (i, s) in scenes.iter().enumerate() {
+            let name = s["scene"].as_str().unwrap();
+            let column = format!("scene_{i}");
+            positive(
+                &row(&format!("build, 1 thread, vs {rival}"))[&column],
+                &format!("{name} build ratio against {rival}"),
             );
-            assert!(
-                (ratio - n / e).abs() < 1e-9 * ratio.max(1.0),
-                "{name} {kind}: headline ratio {ratio} != {n}/{e}"
-            );
+            for t in s["traces"].as_array().expect("traces") {
+                let kind = t["kind"].as_str().unwrap();
+                let n = positive(&t["native_mrays"], &format!("{name} {kind} native"));
+                let e = positive(
+                    &t[format!("{rival}_mrays")],
+                    &format!("{name} {kind} {rival}"),
+                );
+                let ratio = positive(
+                    &row(&format!("{kind} rays, 1 thread, vs {rival}"))[&column],
+                    &format!("{name} {kind} headline ratio against {rival}"),
+                );
+                assert!(
+                    (ratio - n / e).abs() < 1e-9 * ratio.max(1.0),
+                    "{name} {kind}: headline ratio {ratio} != {n}/{e} ({rival})"
+                );
+            }
         }
+        // The verdict quotes the meshes' camera-ray range from the same
+        // figures.
+        let camera: Vec<f64> = scenes
+            .iter()
+            .enumerate()
+            .filter(|(_, s)| s["primitives"].as_u64().unwrap() >= 10_000)
+            .map(|(i, _)| {
+                row(&format!("camera rays, 1 thread, vs {rival}"))[&format!("scene_{i}")]
+                    .as_f64()
+                    .unwrap()
+            })
+            .collect();
+        let lo = camera.iter().copied().fold(f64::INFINITY, f64::min);
+        let verdict = paragraph(rival);
+        assert!(
+            verdict.contains(&format!("{lo:.2}")),
+            "the verdict does not quote the slowest camera ratio {lo:.2} against {rival}: {verdict}"
+        );
     }
-    // The verdict quotes the meshes' camera-ray range from the same figures.
-    let camera: Vec<f64> = scenes
-        .iter()
-        .enumerate()
-        .filter(|(_, s)| s["primitives"].as_u64().unwrap() >= 10_000)
-        .map(|(i, _)| {
-            row("camera rays, 1 thread")[&format!("scene_{i}")]
-                .as_f64()
-                .unwrap()
-        })
-        .collect();
-    let lo = camera.iter().copied().fold(f64::INFINITY, f64::min);
-    assert!(
-        verdict.contains(&format!("{lo:.2}")),
-        "the verdict does not quote the slowest camera ratio {lo:.2}: {verdict}"
-    );
+    let verdict = &opening[opening.find("Against ").expect("a verdict")..];
     assert_eq!(json["verdict"].as_str(), Some(verdict.trim()));
+    assert!(
+        md.contains("### Embree 4 against Embree 3"),
+        "no Embree 3 / Embree 4 table"
+    );
     // Adaptive against uniform: one row per scene, each with a winner.
     let adaptive = json["adaptive_vs_uniform"]
         .as_array()
