@@ -10,10 +10,12 @@
 //! - [`cli`]: the command-line front end.
 //! - [`choice`]: one spelling for every named option value.
 //! - [`text`]: text set into images (captions, legends).
+//! - [`input`]: how user files are read (regular files, caps, quoting).
 
 pub mod accel;
 pub mod choice;
 pub mod cli;
+pub mod input;
 pub mod parity;
 pub mod render;
 pub mod report;

@@ -70,6 +70,23 @@ fn clean_up_on_signals() {
     });
 }
 
+/// The most characters of one error or warning line: errors quote what
+/// they found in short (`crate::input::quote`), and this bounds the rest.
+const MAX_LINE: usize = 400;
+
+/// Writes one `hybrid: KIND: message` line to stderr: on one line, at most
+/// [`MAX_LINE`] characters, and nothing if stderr cannot be written (a
+/// full or closed stderr must not turn an error into a panic).
+pub fn report_line(kind: &str, message: &str) {
+    use std::io::Write;
+    let flat = message.replace(['\n', '\r'], " ");
+    let line = match flat.char_indices().nth(MAX_LINE) {
+        Some((end, _)) => format!("{}… ({} bytes in all)", &flat[..end], flat.len()),
+        None => flat,
+    };
+    let _ = writeln!(std::io::stderr().lock(), "hybrid: {kind}: {line}");
+}
+
 /// Runs the program; returns the exit code.
 pub fn main() -> i32 {
     clean_up_on_signals();
@@ -89,7 +106,7 @@ pub fn main() -> i32 {
                 Some(message) => message,
                 None => one_line(&e.render().to_string()),
             };
-            eprintln!("hybrid: error: {message}");
+            report_line("error", &message);
             return 2;
         }
     };
@@ -107,7 +124,7 @@ pub fn main() -> i32 {
         Ok(true) => 0,
         Ok(false) => 1,
         Err(message) => {
-            eprintln!("hybrid: error: {message}");
+            report_line("error", &message);
             2
         }
     }
@@ -218,7 +235,7 @@ impl SceneInput {
         }
         .map_err(|e| e.to_string())?;
         for warning in &scene.warnings {
-            eprintln!("hybrid: warning: {warning}");
+            report_line("warning", warning);
         }
         Ok(scene)
     }

@@ -32,12 +32,14 @@ pub enum AccelArg {
     None,
 }
 
+/// A camera file is 30 numbers on six lines; anything much longer is not
+/// one, and is refused before it is read.
+pub const MAX_CAMERA_FILE_BYTES: u64 = 64 * 1024;
+
 /// More worker threads than this only cost memory and start-up time.
 pub const MAX_THREADS: usize = 256;
 
-/// The most pixels one run renders (8192 x 8192): the film costs
-/// [`FILM_BYTES_PER_PIXEL`] each, and writing it a few more.
-pub const MAX_PIXELS: u64 = 1 << 26;
+pub use crate::render::film::MAX_PIXELS;
 /// Mean (12 bytes), sample count (4) and double-precision sum (24).
 const FILM_BYTES_PER_PIXEL: u64 = 40;
 
@@ -352,8 +354,10 @@ impl RenderArgs {
         let course_camera = match &self.camera_file {
             Some(path) => {
                 let name = path.display().to_string();
-                let text = std::fs::read_to_string(path)
+                let bytes = crate::input::read_regular(path, MAX_CAMERA_FILE_BYTES)
                     .map_err(|e| format!("{name}: cannot read the camera file: {e}"))?;
+                let text = String::from_utf8(bytes)
+                    .map_err(|_| format!("{name}: the camera file is not UTF-8 text"))?;
                 Some(CourseCamera::parse(&text, &name)?)
             }
             None => None,
@@ -576,7 +580,7 @@ impl Progress for Bar {
 pub fn run(args: &RenderArgs) -> Result<(), String> {
     let settings = args.settings()?;
     for warning in args.warnings() {
-        eprintln!("hybrid: warning: {warning}");
+        super::report_line("warning", &warning);
     }
     let output = args.output_path();
     match output
@@ -669,8 +673,9 @@ pub fn render_with(args: &RenderArgs, settings: &RenderSettings) -> Result<Rende
     let start = Instant::now();
     let mut scene = args.input.load(normal_mode)?;
     match args.crease {
-        Some(_) if args.flat => eprintln!(
-            "hybrid: warning: --crease is ignored with --flat (every face keeps its own normal)"
+        Some(_) if args.flat => super::report_line(
+            "warning",
+            "--crease is ignored with --flat (every face keeps its own normal)",
         ),
         Some(degrees) => scene.mesh.crease(degrees),
         None => {}

@@ -45,8 +45,8 @@ pub struct SeriesArgs {
     #[arg(long, value_name = "OPTION=VALUES")]
     pub vary: String,
     /// Tiles per row of the contact sheet (default: up to 4).
-    #[arg(long, value_name = "N")]
-    pub columns: Option<usize>,
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u16).range(1..=64))]
+    pub columns: Option<u16>,
     /// The render options every tile shares; `-f` names the contact sheet
     /// (default: SCENE_OPTION.png), the single images go beside it as
     /// SHEET_VALUE.png.
@@ -62,6 +62,9 @@ struct Variant {
     #[command(flatten)]
     series: SeriesArgs,
 }
+
+/// The most values one series renders (ranges and lists alike).
+const MAX_VALUES: usize = 64;
 
 /// `NAME=VALUES` as the name and the list of values.
 pub fn parse_vary(text: &str) -> Result<(String, Vec<String>), String> {
@@ -100,6 +103,13 @@ pub fn parse_vary(text: &str) -> Result<(String, Vec<String>), String> {
     };
     if list.is_empty() || list.iter().any(|v| v.is_empty()) {
         return Err(bad("an empty value"));
+    }
+    // A sheet of more tiles is unreadable, and each value is a render.
+    if list.len() > MAX_VALUES {
+        return Err(bad(&format!(
+            "{} values; a series takes at most {MAX_VALUES}",
+            list.len()
+        )));
     }
     Ok((name, list))
 }
@@ -248,7 +258,7 @@ pub fn run(args: &SeriesArgs, raw: &[String]) -> Result<(), String> {
     // The options every value shares, warned about once.
     if let Some((_, first, _)) = variants.first() {
         for warning in first.warnings() {
-            eprintln!("hybrid: warning: {warning}");
+            super::report_line("warning", &warning);
         }
     }
     let mut tiles = Vec::new();
@@ -306,11 +316,14 @@ pub fn run(args: &SeriesArgs, raw: &[String]) -> Result<(), String> {
             flag(&name)
         }
     );
-    let columns = args.columns.unwrap_or(match tiles.len() {
-        n @ 0..=4 => n,
-        5 | 6 => 3,
-        _ => 4,
-    });
+    let columns = args.columns.map_or(
+        match tiles.len() {
+            n @ 0..=4 => n,
+            5 | 6 => 3,
+            _ => 4,
+        },
+        usize::from,
+    );
     let contact = sheet(&title, &tiles, columns)?;
     let mut files = Vec::new();
     for (path, film, map) in &films {

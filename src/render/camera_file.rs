@@ -78,7 +78,8 @@ impl CourseCamera {
                     }
                     _ => {
                         return Err(format!(
-                            "{file}:{line}: '{word}' is not a finite number (in '{group}')"
+                            "{file}:{line}: '{}' is not a finite number (in '{group}')",
+                            crate::input::quote(word)
                         ))
                     }
                 }
@@ -86,7 +87,8 @@ impl CourseCamera {
         }
         if let Some((line, word)) = tokens.next() {
             return Err(format!(
-                "{file}:{line}: unexpected '{word}' after the 30 numbers of a camera file"
+                "{file}:{line}: unexpected '{}' after the 30 numbers of a camera file",
+                crate::input::quote(word)
             ));
         }
         let v = |i: usize| values[i];
@@ -105,11 +107,14 @@ impl CourseCamera {
             .all(|a| (a.length() - 1.0).abs() < 1e-3)
             && right.dot(up).abs() < 1e-3
             && right.dot(back).abs() < 1e-3
-            && up.dot(back).abs() < 1e-3;
+            && up.dot(back).abs() < 1e-3
+            // A reflection has orthonormal columns too: the axes must be
+            // right-handed (determinant +1), or the image is mirrored.
+            && right.cross(up).dot(back) > 0.0;
         let matrix_line = lines[16];
         if !orthonormal {
             return Err(format!(
-                "{file}:{matrix_line}: the camera-to-world matrix is not a rotation (its columns must be unit length and at right angles)"
+                "{file}:{matrix_line}: the camera-to-world matrix is not a rotation (its columns must be unit length, at right angles and right-handed)"
             ));
         }
         let (focal_distance, lens_radius) = (v(28), v(29));

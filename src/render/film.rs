@@ -8,6 +8,11 @@ use std::io::{BufWriter, Seek, Write};
 use std::path::{Path, PathBuf};
 use std::sync::{Mutex, MutexGuard};
 
+/// The most pixels one run renders (8192 x 8192), and so the most a part
+/// (`render/part.rs`) can hold: a film costs 40 bytes a pixel (mean, sample
+/// count, double-precision sum), and writing it a few more.
+pub const MAX_PIXELS: u64 = 1 << 26;
+
 use glam::{DVec3, Vec3};
 
 use super::part::{self, Origin};
@@ -312,6 +317,23 @@ fn temporary(path: &Path) -> PathBuf {
     path.with_file_name(format!(".{name}.partial-{}", std::process::id()))
 }
 
+/// `Err` when something other than a regular file has the output's name: a
+/// directory, a symbolic link, a device, a FIFO or a socket. The finished
+/// image is renamed onto the name, which would replace such an entry
+/// rather than write through it, so it is refused instead.
+fn refuse_special(path: &Path) -> Result<(), String> {
+    match std::fs::symlink_metadata(path) {
+        Ok(meta) if meta.is_dir() => Err("is a directory".into()),
+        Ok(meta) if meta.file_type().is_symlink() => Err(
+            "is a symbolic link; hybrid writes by renaming a finished file onto the name, which would replace the link: give the link's target instead".into(),
+        ),
+        Ok(meta) if !meta.is_file() => Err(
+            "is a device, FIFO or socket, not a regular file: hybrid writes images to regular files only".into(),
+        ),
+        _ => Ok(()),
+    }
+}
+
 /// Writes every file or none: each is encoded straight into a temporary
 /// name, and only when all are complete are they renamed into place. A
 /// failure removes what this call wrote, so no half image (and no image
@@ -346,7 +368,10 @@ pub fn write_files(files: &[(&Path, ImageFile)]) -> Result<(), FilmError> {
     })();
     let result = result.and_then(|()| {
         for (k, ((path, _), tmp)) in files.iter().zip(&written).enumerate() {
-            if let Err(e) = std::fs::rename(tmp, path) {
+            if let Err(e) = refuse_special(path)
+                .map_err(std::io::Error::other)
+                .and_then(|()| std::fs::rename(tmp, path))
+            {
                 for (done, _) in &files[..k] {
                     let _ = std::fs::remove_file(done);
                 }
@@ -372,9 +397,7 @@ pub fn check_writable(path: &Path) -> Result<(), FilmError> {
         path: path.display().to_string(),
         message,
     };
-    if path.is_dir() {
-        return Err(fail("is a directory".into()));
-    }
+    refuse_special(path).map_err(fail)?;
     let tmp = temporary(path);
     File::create(&tmp).map_err(|e| fail(e.to_string()))?;
     let _ = std::fs::remove_file(&tmp);

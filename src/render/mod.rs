@@ -255,7 +255,7 @@ fn pixel<A: Accel>(
     let (mut s1, mut s2) = (0.0f64, 0.0f64);
     let mut done = first;
     while done < last {
-        let end = (done + batch).min(last);
+        let end = done.saturating_add(batch).min(last);
         for i in done..end {
             let mut rng = Rng::for_sample(settings.seed, x, y, i);
             // One sample at the pixel centre when there is one sample;

@@ -17,7 +17,7 @@ use exr::prelude::{
 };
 use glam::{DVec3, Vec3};
 
-use super::film::{Film, ToneMap};
+use super::film::{Film, ToneMap, MAX_PIXELS};
 use super::Cell;
 
 /// The header attribute holding the [`Origin`].
@@ -87,6 +87,12 @@ impl Origin {
                 (words.next().unwrap_or(""), words.collect())
             })
             .collect();
+        // A field given twice has no one meaning.
+        for (i, (key, _)) in fields.iter().enumerate() {
+            if !key.is_empty() && fields[..i].iter().any(|(k, _)| k == key) {
+                return None;
+            }
+        }
         let get = |key: &str| fields.iter().find(|(k, _)| *k == key).map(|(_, v)| v);
         let nums = |key: &str, n: usize| -> Option<Vec<u64>> {
             let v = get(key)?;
@@ -179,6 +185,7 @@ pub fn write_exr<W: Write + Seek>(out: &mut W, film: &Film, map: ToneMap) -> Res
 
 /// A part read back: its origin, tone map, and per pixel the sample count
 /// and the sum.
+#[derive(Debug)]
 pub struct Part {
     pub origin: Origin,
     pub map: ToneMap,
@@ -186,13 +193,37 @@ pub struct Part {
     pub sums: Vec<DVec3>,
 }
 
-/// Reads a part written by [`write_exr`].
+/// The largest part file read: one run's most pixels at 40 bytes each,
+/// with room for the EXR's own tables.
+const MAX_PART_BYTES: u64 = (MAX_PIXELS + 1024) * 48;
+
+/// Reads a part written by [`write_exr`]: a regular file of at most
+/// [`MAX_PART_BYTES`] whose headers promise at most [`MAX_PIXELS`] pixels
+/// (checked before any pixel is decoded), holding finite, non-negative sums
+/// and the sample counts its attribute promises.
 pub fn read_part(path: &Path) -> Result<Part, String> {
-    let file = std::fs::File::open(path).map_err(|e| format!("{}: {e}", path.display()))?;
-    read_part_from(std::io::BufReader::new(file)).map_err(|e| format!("{}: {e}", path.display()))
+    let name = path.display();
+    crate::input::check_regular(path, MAX_PART_BYTES).map_err(|e| format!("{name}: {e}"))?;
+    let file = std::fs::File::open(path).map_err(|e| format!("{name}: {e}"))?;
+    read_part_from(std::io::BufReader::new(file)).map_err(|e| format!("{name}: {e}"))
 }
 
-fn read_part_from(input: impl Read + Seek) -> Result<Part, String> {
+fn read_part_from(mut input: impl Read + Seek) -> Result<Part, String> {
+    let start = input.stream_position().map_err(|e| e.to_string())?;
+    let meta = exr::meta::MetaData::read_from_buffered(&mut input, false)
+        .map_err(|e| format!("not a readable EXR file ({e})"))?;
+    for header in meta.headers.iter() {
+        let size = header.layer_size;
+        if size.0 as u64 * size.1 as u64 > MAX_PIXELS {
+            return Err(format!(
+                "its image is {} x {} pixels; a part holds at most {MAX_PIXELS} (one run's most)",
+                size.0, size.1
+            ));
+        }
+    }
+    input
+        .seek(std::io::SeekFrom::Start(start))
+        .map_err(|e| e.to_string())?;
     let image = read()
         .no_deep_data()
         .largest_resolution_level()
@@ -242,11 +273,28 @@ fn read_part_from(input: impl Read + Seek) -> Result<Part, String> {
         }
     };
     let samples = channel("samples")?;
+    // What the attribute promises: every sample of the range (uniform), or
+    // at least one batch and at most the cap (adaptive).
+    let span = origin.samples.1 - origin.samples.0;
+    let promised = |n: u32| match origin.adaptive {
+        None => n == span,
+        Some(_) => n >= 1 && n <= span,
+    };
+    if let Some(i) = samples.iter().position(|&n| !promised(n)) {
+        return Err(format!(
+            "pixel {i} of the cell holds {} samples where its attribute promises {}",
+            samples[i],
+            match origin.adaptive {
+                None => format!("{span}"),
+                Some(_) => format!("1 to {span}"),
+            }
+        ));
+    }
     let words: Vec<Vec<u32>> = SUMS.iter().map(|n| channel(n)).collect::<Result<_, _>>()?;
     let f = |hi: &[u32], lo: &[u32], i: usize| {
         f64::from_bits((u64::from(hi[i]) << 32) | u64::from(lo[i]))
     };
-    let sums = (0..w * h)
+    let sums: Vec<DVec3> = (0..w * h)
         .map(|i| {
             DVec3::new(
                 f(&words[4], &words[5], i),
@@ -255,6 +303,16 @@ fn read_part_from(input: impl Read + Seek) -> Result<Part, String> {
             )
         })
         .collect();
+    // Radiance is finite and never negative, so neither are its sums.
+    if let Some(i) = sums
+        .iter()
+        .position(|s| !s.is_finite() || s.min_element() < 0.0)
+    {
+        return Err(format!(
+            "pixel {i} of the cell has the sum {} (radiance sums are finite and not negative)",
+            sums[i]
+        ));
+    }
     Ok(Part {
         origin,
         map,
@@ -306,6 +364,17 @@ pub fn merge(parts: &[Part], names: &[String]) -> Result<(Film, ToneMap), String
         }
     }
     let (w, h) = o.frame;
+    // The parts must cover the frame, so they hold at least its pixels:
+    // checked before the frame's film is allocated.
+    let held: u64 = parts
+        .iter()
+        .map(|p| u64::from(p.origin.cell.width) * u64::from(p.origin.cell.height))
+        .sum();
+    if u64::from(w) * u64::from(h) > held {
+        return Err(format!(
+            "the parts hold {held} pixels of a {w} x {h} frame: some are missing"
+        ));
+    }
     let mut film = Film::new(w, h);
     let mut covered = vec![0u64; w as usize * h as usize];
     for p in parts {
@@ -316,7 +385,16 @@ pub fn merge(parts: &[Part], names: &[String]) -> Result<(Film, ToneMap), String
                 let src = (y * c.width + x) as usize;
                 let dst = ((c.y + y) * w + c.x + x) as usize;
                 film.sums[dst] += p.sums[src];
-                film.samples[dst] += p.samples[src];
+                film.samples[dst] =
+                    film.samples[dst]
+                        .checked_add(p.samples[src])
+                        .ok_or_else(|| {
+                            format!(
+                                "pixel ({}, {}) adds up to more than 2^32 samples",
+                                c.x + x,
+                                c.y + y
+                            )
+                        })?;
                 covered[dst] += span;
             }
         }
@@ -352,4 +430,84 @@ pub fn merge(parts: &[Part], names: &[String]) -> Result<(Film, ToneMap), String
         ..o
     };
     Ok((film, first.map))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::io::Cursor;
+
+    /// A uniform part of `cell` at samples `range` of `total`, every pixel
+    /// holding `samples` samples summing to `sum`.
+    fn part(frame: (u32, u32), cell: Cell, range: (u32, u32), samples: u32, sum: DVec3) -> Vec<u8> {
+        let mut film = Film::new(cell.width, cell.height);
+        film.samples.iter_mut().for_each(|n| *n = samples);
+        film.sums.iter_mut().for_each(|s| *s = sum);
+        film.origin = Origin {
+            frame,
+            cell,
+            samples: range,
+            total: range.1,
+            seed: 1,
+            adaptive: None,
+        };
+        let mut out = Cursor::new(Vec::new());
+        write_exr(&mut out, &film, ToneMap::Reference).unwrap();
+        out.into_inner()
+    }
+
+    fn read(bytes: Vec<u8>) -> Result<Part, String> {
+        read_part_from(Cursor::new(bytes))
+    }
+
+    const CELL: Cell = Cell {
+        x: 0,
+        y: 0,
+        width: 2,
+        height: 2,
+    };
+
+    #[test]
+    fn a_valid_part_reads_back() {
+        let p = read(part((2, 2), CELL, (0, 4), 4, DVec3::splat(2.0))).unwrap();
+        assert_eq!(p.samples, vec![4; 4]);
+        assert_eq!(p.sums[3], DVec3::splat(2.0));
+    }
+
+    #[test]
+    fn a_field_given_twice_is_not_an_attribute() {
+        let o = Origin::whole(2, 2);
+        let text = o.text(ToneMap::Reference);
+        assert!(Origin::parse(&text).is_some(), "{text}");
+        let twice = format!("frame 4 4; {text}");
+        assert!(Origin::parse(&twice).is_none(), "{twice} was accepted");
+    }
+
+    #[test]
+    fn parts_with_impossible_sums_are_refused() {
+        for bad in [
+            DVec3::new(f64::NAN, 0.0, 0.0),
+            DVec3::new(0.0, f64::INFINITY, 0.0),
+            DVec3::new(0.0, 0.0, -1.0),
+        ] {
+            let e = read(part((2, 2), CELL, (0, 4), 4, bad)).unwrap_err();
+            assert!(e.contains("finite and not negative"), "{bad}: {e}");
+        }
+    }
+
+    #[test]
+    fn parts_short_of_their_promised_samples_are_refused() {
+        let e = read(part((2, 2), CELL, (0, 4), 0, DVec3::ZERO)).unwrap_err();
+        assert!(e.contains("promises 4"), "{e}");
+        let e = read(part((2, 2), CELL, (0, 4), 5, DVec3::ZERO)).unwrap_err();
+        assert!(e.contains("promises 4"), "{e}");
+    }
+
+    #[test]
+    fn a_declared_frame_larger_than_its_parts_fails_before_allocating() {
+        // 65536 x 65536 would be a 160 GiB film; the part holds 4 pixels.
+        let p = read(part((65536, 65536), CELL, (0, 4), 4, DVec3::ONE)).unwrap();
+        let e = merge(&[p], &["huge.exr".into()]).unwrap_err();
+        assert!(e.contains("some are missing"), "{e}");
+    }
 }

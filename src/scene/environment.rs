@@ -23,6 +23,10 @@ use glam::Vec3;
 use crate::render::sampling::{luminance, uniform_sphere};
 
 /// Largest map read: 8192 x 4096 texels (about 0.5 GiB with its tables).
+/// The largest map file read (an uncompressed 4096 x 2048 RGBA float EXR
+/// is 128 MiB).
+pub const MAX_MAP_BYTES: u64 = 1 << 30;
+
 pub const MAX_TEXELS: u64 = 8192 * 4096;
 
 /// How light sampling draws directions from the map.
@@ -112,12 +116,17 @@ impl Environment {
 
     /// Reads an equirectangular map from an image file (EXR for radiance;
     /// any format the `image` crate reads works, taken as linear).
+    /// Reads an equirectangular map: a regular file of at most
+    /// [`MAX_MAP_BYTES`] and [`MAX_TEXELS`] texels, checked before decoding.
     pub fn load(path: &Path) -> Result<Environment, EnvironmentError> {
         let name = path.display().to_string();
         let fail = |what: String| EnvironmentError {
             path: name.clone(),
             what,
         };
+        // A FIFO would block the decoder, a device feed it forever.
+        crate::input::check_regular(path, MAX_MAP_BYTES)
+            .map_err(|e| fail(format!("cannot read the environment map: {e}")))?;
         let reader = image::ImageReader::open(path)
             .map_err(|e| fail(format!("cannot read the environment map: {e}")))?
             .with_guessed_format()

@@ -21,10 +21,10 @@ const TINY: &str = include_str!("../data/tiny.dae");
 const MEMORY_KIB: u64 = 1 << 20;
 const TIME_LIMIT: Duration = Duration::from_secs(60);
 
-struct Outcome {
-    code: Option<i32>,
-    stdout: String,
-    stderr: String,
+pub(crate) struct Outcome {
+    pub code: Option<i32>,
+    pub stdout: String,
+    pub stderr: String,
 }
 
 impl Outcome {
@@ -37,7 +37,7 @@ impl Outcome {
 }
 
 /// Runs `hybrid args` in `dir` under the memory and time limits.
-fn run(dir: &Path, args: &[&str]) -> Outcome {
+pub(crate) fn run(dir: &Path, args: &[&str]) -> Outcome {
     let mut child = Command::new("sh")
         .arg("-c")
         .arg(format!("ulimit -v {MEMORY_KIB} && exec \"$0\" \"$@\""))
@@ -75,7 +75,7 @@ fn files(dir: &Path) -> BTreeSet<PathBuf> {
 
 /// `args` must fail with exit 2 and one error line mentioning every
 /// `needle`, leave no new file in `dir`, and not panic. Returns the line.
-fn fails(dir: &Path, args: &[&str], needles: &[&str]) -> String {
+pub(crate) fn fails(dir: &Path, args: &[&str], needles: &[&str]) -> String {
     let before = files(dir);
     let o = run(dir, args);
     let what = format!("hybrid {args:?}: {}", o.describe());
@@ -94,7 +94,7 @@ fn fails(dir: &Path, args: &[&str], needles: &[&str]) -> String {
 
 /// `args` must render `out` with exit 0; every stderr line is a warning,
 /// and each of `warnings` appears in one of them. Returns the stderr.
-fn renders(dir: &Path, args: &[&str], out: &str, warnings: &[&str]) -> String {
+pub(crate) fn renders(dir: &Path, args: &[&str], out: &str, warnings: &[&str]) -> String {
     let _ = std::fs::remove_file(dir.join(out));
     let o = run(dir, args);
     let what = format!("hybrid {args:?}: {}", o.describe());

@@ -9,6 +9,7 @@ mod camera;
 mod cli;
 mod embree_backend;
 mod hostile;
+mod hostile_inputs;
 
 mod environment;
 mod integrators;

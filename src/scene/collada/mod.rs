@@ -91,7 +91,10 @@ pub fn load_limited(
     }
     let mut bytes = Vec::new();
     std::io::Read::read_to_end(
-        &mut std::io::Read::take(std::fs::File::open(path).map_err(io)?, max_bytes + 1),
+        &mut std::io::Read::take(
+            std::fs::File::open(path).map_err(io)?,
+            max_bytes.saturating_add(1),
+        ),
         &mut bytes,
     )
     .map_err(io)?;
@@ -238,8 +241,9 @@ impl<'a, 'input> Loader<'a, 'input> {
             if let Some(first) = ids.insert(id, n) {
                 let line = |n: Node| doc.text_pos_at(n.range().start).row;
                 builder.warn(format!(
-                    "{file}:{}: <{}>: id '{id}' was already given at line {}; references use this later one",
+                    "{file}:{}: <{}>: id '{}' was already given at line {}; references use this later one",
                     line(n),
+                    crate::input::quote(id),
                     n.tag_name().name(),
                     line(first)
                 ));
@@ -262,7 +266,11 @@ impl<'a, 'input> Loader<'a, 'input> {
             file: self.file.to_string(),
             line: pos.row,
             element: match node.attribute("id") {
-                Some(id) => format!("{} id=\"{id}\"", node.tag_name().name()),
+                Some(id) => format!(
+                    "{} id=\"{}\"",
+                    node.tag_name().name(),
+                    crate::input::quote(id)
+                ),
                 None => node.tag_name().name().to_string(),
             },
             problem: problem.into(),
@@ -300,7 +308,12 @@ impl<'a, 'input> Loader<'a, 'input> {
             "Y_UP" => return Ok(Mat4::IDENTITY),
             "Z_UP" => [[-1.0, 0.0, 0.0], [0.0, 0.0, 1.0], [0.0, 1.0, 0.0]],
             "X_UP" => [[0.0, 1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, -1.0]],
-            other => return Err(self.error(axis, format!("unknown up axis '{other}'"))),
+            other => {
+                return Err(self.error(
+                    axis,
+                    format!("unknown up axis '{}'", crate::input::quote(other)),
+                ))
+            }
         };
         let m = Mat4::from_cols(
             Vec4::new(rows[0][0], rows[1][0], rows[2][0], 0.0),
@@ -319,13 +332,21 @@ impl<'a, 'input> Loader<'a, 'input> {
         let id = value.strip_prefix('#').ok_or_else(|| {
             self.error(
                 node,
-                format!("{attr}=\"{value}\" is not a local reference '#id'"),
+                format!(
+                    "{attr}=\"{}\" is not a local reference '#id'",
+                    crate::input::quote(value)
+                ),
             )
         })?;
-        self.ids
-            .get(id)
-            .copied()
-            .ok_or_else(|| self.error(node, format!("{attr}=\"{value}\" refers to a missing id")))
+        self.ids.get(id).copied().ok_or_else(|| {
+            self.error(
+                node,
+                format!(
+                    "{attr}=\"{}\" refers to a missing id",
+                    crate::input::quote(value)
+                ),
+            )
+        })
     }
 
     fn load_node(&mut self, node: Node<'a, 'input>, parent: Mat4) -> Result<()> {

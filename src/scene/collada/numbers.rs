@@ -13,11 +13,17 @@ impl<'a, 'input> Loader<'a, 'input> {
         // A number takes at least two characters with its separator.
         let mut out = Vec::with_capacity(expected.unwrap_or(0).min(text.len() / 2 + 1));
         for token in text.split_ascii_whitespace() {
-            let v: f32 = token
-                .parse()
-                .map_err(|_| self.error(node, format!("'{token}' is not a number")))?;
+            let v: f32 = token.parse().map_err(|_| {
+                self.error(
+                    node,
+                    format!("'{}' is not a number", crate::input::quote(token)),
+                )
+            })?;
             if !v.is_finite() {
-                return Err(self.error(node, format!("non-finite number '{token}'")));
+                return Err(self.error(
+                    node,
+                    format!("non-finite number '{}'", crate::input::quote(token)),
+                ));
             }
             out.push(v);
         }
@@ -51,8 +57,12 @@ impl<'a, 'input> Loader<'a, 'input> {
             .unwrap_or("")
             .split_ascii_whitespace()
             .map(|t| {
-                t.parse::<u32>()
-                    .map_err(|_| self.error(node, format!("'{t}' is not an index")))
+                t.parse::<u32>().map_err(|_| {
+                    self.error(
+                        node,
+                        format!("'{}' is not an index", crate::input::quote(t)),
+                    )
+                })
             })
             .collect()
     }

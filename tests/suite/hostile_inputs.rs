@@ -1,0 +1,303 @@
+//! Hostile input on the paths besides the scene file (issue 29's audit):
+//! environment maps, camera files, merge parts, series values, numbers on
+//! the command line, and output names. Every case ends in one short
+//! `hybrid: error:` line, exit code 2, bounded time and memory (the
+//! harness of `hostile.rs` runs the binary under both limits), and leaves
+//! every existing file as it was.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Stdio};
+
+use crate::common;
+use crate::hostile::{fails, run};
+
+/// The longest error line a case may print.
+const SHORT_LINE: usize = 500;
+
+/// A FIFO at `dir/name`, which a reader that opens it would block on.
+fn fifo(dir: &Path, name: &str) -> String {
+    let path = dir.join(name);
+    let _ = std::fs::remove_file(&path);
+    let status = Command::new("mkfifo").arg(&path).status().expect("mkfifo");
+    assert!(status.success(), "mkfifo {}", path.display());
+    path.to_str().unwrap().to_string()
+}
+
+/// A camera file of the default scene, as `--save-camera` writes it.
+fn saved_camera(dir: &Path) -> String {
+    let path = dir.join("saved.cam");
+    let o = run(
+        dir,
+        &[
+            "render",
+            "-r",
+            "8 6",
+            "--save-camera",
+            "saved.cam",
+            "-f",
+            "saved.png",
+        ],
+    );
+    assert_eq!(o.code, Some(2), "-r takes two numbers: {}", o.stderr);
+    let o = run(
+        dir,
+        &[
+            "render",
+            "-r",
+            "8",
+            "6",
+            "--save-camera",
+            "saved.cam",
+            "-f",
+            "saved.png",
+        ],
+    );
+    assert_eq!(o.code, Some(0), "{}", o.stderr);
+    std::fs::read_to_string(&path).expect("camera file")
+}
+
+#[test]
+fn special_files_as_map_camera_or_part_are_refused_at_once() {
+    let dir = common::scratch("hostile-fifo");
+    let map = fifo(&dir, "map.exr");
+    let line = fails(
+        &dir,
+        &["render", "-r", "8", "6", "-e", &map, "-f", "a.png"],
+        &["map.exr", "not a regular file"],
+    );
+    println!("{line}");
+    let cam = fifo(&dir, "camera.txt");
+    fails(
+        &dir,
+        &["render", "-r", "8", "6", "-c", &cam, "-f", "b.png"],
+        &["camera.txt", "not a regular file"],
+    );
+    fails(
+        &dir,
+        &["render", "-r", "8", "6", "-c", "/dev/zero", "-f", "c.png"],
+        &["/dev/zero", "not a regular file"],
+    );
+    let part = fifo(&dir, "part.exr");
+    fails(
+        &dir,
+        &["merge", "-f", "d.png", &part],
+        &["part.exr", "not a regular file"],
+    );
+}
+
+#[test]
+fn camera_files_are_read_within_a_cap_and_quoted_in_short() {
+    let dir = common::scratch("hostile-camera");
+    let camera = saved_camera(&dir);
+    // A valid camera padded with blanks past the cap.
+    let padded = dir.join("padded.cam");
+    std::fs::write(&padded, format!("{camera}{}", " ".repeat(1 << 20))).unwrap();
+    fails(
+        &dir,
+        &["render", "-r", "8", "6", "-c", "padded.cam", "-f", "a.png"],
+        &["padded.cam", "bytes"],
+    );
+    // A token of 40 KB: the error quotes a prefix.
+    let token = dir.join("token.cam");
+    std::fs::write(&token, format!("{}\n{camera}", "7".repeat(40_000))).unwrap();
+    let line = fails(
+        &dir,
+        &["render", "-r", "8", "6", "-c", "token.cam", "-f", "b.png"],
+        &["token.cam", "(40000 bytes)"],
+    );
+    assert!(line.len() < SHORT_LINE, "{} characters: {line}", line.len());
+    // NULs are not text.
+    std::fs::write(dir.join("nul.cam"), vec![0u8; 4096]).unwrap();
+    let line = fails(
+        &dir,
+        &["render", "-r", "8", "6", "-c", "nul.cam", "-f", "c.png"],
+        &["nul.cam"],
+    );
+    assert!(line.len() < SHORT_LINE, "{line}");
+}
+
+#[test]
+fn a_mirrored_camera_matrix_is_not_a_rotation() {
+    let dir = common::scratch("hostile-mirror");
+    let camera = saved_camera(&dir);
+    // Line 4 holds the 3x3 camera-to-world matrix, row-major: negating its
+    // first column mirrors the image while keeping the columns orthonormal.
+    let mut lines: Vec<String> = camera.lines().map(str::to_string).collect();
+    let mut m: Vec<f64> = lines[3]
+        .split_whitespace()
+        .map(|w| w.parse().unwrap())
+        .collect();
+    assert_eq!(m.len(), 9, "{}", lines[3]);
+    for row in 0..3 {
+        m[row * 3] = -m[row * 3];
+    }
+    lines[3] = m
+        .iter()
+        .map(|v| format!("{v}"))
+        .collect::<Vec<_>>()
+        .join(" ");
+    std::fs::write(dir.join("mirror.cam"), lines.join("\n") + "\n").unwrap();
+    fails(
+        &dir,
+        &["render", "-r", "8", "6", "-c", "mirror.cam", "-f", "a.png"],
+        &["mirror.cam:4", "right-handed"],
+    );
+}
+
+#[test]
+fn a_huge_number_in_a_scene_is_quoted_in_short() {
+    let dir = common::scratch("hostile-token");
+    let scene = include_str!("../data/tiny.dae");
+    let at = scene.find("<float_array").expect("an array");
+    let close = at + scene[at..].find('>').unwrap() + 1;
+    let edited = format!(
+        "{}{}x {}",
+        &scene[..close],
+        "1".repeat(1 << 20),
+        &scene[close..]
+    );
+    std::fs::write(dir.join("token.dae"), edited).unwrap();
+    let line = fails(
+        &dir,
+        &["render", "token.dae", "-r", "8", "6", "-f", "a.png"],
+        &["token.dae", "bytes)"],
+    );
+    assert!(line.len() < SHORT_LINE, "{} characters", line.len());
+}
+
+#[test]
+fn numbers_at_their_limits_neither_wrap_nor_hang() {
+    let dir = common::scratch("hostile-numbers");
+    std::fs::write(dir.join("tiny.dae"), include_str!("../data/tiny.dae")).unwrap();
+    // A limit of 2^44 MiB saturates instead of wrapping to nothing.
+    let o = run(
+        &dir,
+        &[
+            "render",
+            "tiny.dae",
+            "--max-scene-mb",
+            "17592186044416",
+            "-r",
+            "4",
+            "3",
+            "-f",
+            "a.png",
+        ],
+    );
+    assert_eq!(o.code, Some(0), "{}", o.stderr);
+    // The last samples of a 2^32 - 1 sample render: the batch end saturates.
+    let o = run(
+        &dir,
+        &[
+            "render",
+            "tiny.dae",
+            "-r",
+            "1",
+            "1",
+            "-s",
+            "4294967295",
+            "--samples",
+            "4294967290..4294967295",
+            "-f",
+            "b.exr",
+        ],
+    );
+    assert_eq!(o.code, Some(0), "{}", o.stderr);
+    assert!(
+        o.stdout.contains("samples 4294967290..4294967295"),
+        "{}",
+        o.stdout
+    );
+    // Far into the range costs what its own samples cost.
+    let start = std::time::Instant::now();
+    let o = run(
+        &dir,
+        &[
+            "render",
+            "tiny.dae",
+            "-r",
+            "1",
+            "1",
+            "-s",
+            "200000000",
+            "--samples",
+            "100000000..100000001",
+            "-f",
+            "c.exr",
+        ],
+    );
+    assert_eq!(o.code, Some(0), "{}", o.stderr);
+    println!("one sample far into the range: {:?}", start.elapsed());
+}
+
+#[test]
+fn series_values_and_columns_are_bounded() {
+    let dir = common::scratch("hostile-series");
+    let list: Vec<String> = (1..=65).map(|v| v.to_string()).collect();
+    let vary = format!("s={}", list.join(","));
+    fails(
+        &dir,
+        &["series", "--vary", &vary, "-r", "4", "3"],
+        &["65 values", "at most 64"],
+    );
+    fails(
+        &dir,
+        &[
+            "series",
+            "--vary",
+            "s=1,2",
+            "--columns",
+            "0",
+            "-r",
+            "4",
+            "3",
+        ],
+        &["--columns"],
+    );
+}
+
+#[test]
+fn outputs_never_replace_links_or_devices() {
+    let dir = common::scratch("hostile-output");
+    let target = dir.join("target.png");
+    std::fs::write(&target, b"keep me").unwrap();
+    let link = dir.join("link.png");
+    let _ = std::fs::remove_file(&link);
+    std::os::unix::fs::symlink(&target, &link).unwrap();
+    fails(
+        &dir,
+        &["render", "-r", "4", "3", "-f", "link.png"],
+        &["link.png", "symbolic link"],
+    );
+    assert!(std::fs::symlink_metadata(&link)
+        .unwrap()
+        .file_type()
+        .is_symlink());
+    assert_eq!(std::fs::read(&target).unwrap(), b"keep me");
+    let fifo = fifo(&dir, "fifo.png");
+    fails(
+        &dir,
+        &["render", "-r", "4", "3", "-f", &fifo],
+        &["fifo.png", "not a regular file"],
+    );
+    assert!(!std::fs::symlink_metadata(&fifo).unwrap().is_file());
+}
+
+#[test]
+fn a_full_stderr_is_exit_2_not_a_panic() {
+    let dir = common::scratch("hostile-stderr");
+    let full = std::fs::OpenOptions::new()
+        .write(true)
+        .open("/dev/full")
+        .expect("/dev/full");
+    let status = Command::new(env!("CARGO_BIN_EXE_hybrid"))
+        .args(["render", "-r", "0", "0"])
+        .current_dir(&dir)
+        .stdin(Stdio::null())
+        .stdout(Stdio::null())
+        .stderr(Stdio::from(full))
+        .status()
+        .expect("runs");
+    assert_eq!(status.code(), Some(2), "{status}");
+    let _: PathBuf = dir;
+}
