@@ -87,6 +87,19 @@ pub fn report_line(kind: &str, message: &str) {
     let _ = writeln!(std::io::stderr().lock(), "hybrid: {kind}: {line}");
 }
 
+/// Parses a command line (without the program's name) and checks what can
+/// be checked before any work: clap's parse, then a render's settings. The
+/// fuzz target `cli` feeds it arbitrary arguments.
+pub fn check_command_line(args: &[String]) -> Result<(), String> {
+    let cli =
+        Cli::try_parse_from(std::iter::once("hybrid".to_string()).chain(args.iter().cloned()))
+            .map_err(|e| one_line(&e.render().to_string()))?;
+    match cli.command {
+        Command::Render(args) => args.settings().map(|_| ()),
+        _ => Ok(()),
+    }
+}
+
 /// Runs the program; returns the exit code.
 pub fn main() -> i32 {
     clean_up_on_signals();

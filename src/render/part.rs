@@ -208,6 +208,11 @@ pub fn read_part(path: &Path) -> Result<Part, String> {
     read_part_from(std::io::BufReader::new(file)).map_err(|e| format!("{name}: {e}"))
 }
 
+/// Reads a part from bytes in memory (as [`read_part`] does a file).
+pub fn read_part_bytes(bytes: &[u8]) -> Result<Part, String> {
+    read_part_from(std::io::Cursor::new(bytes))
+}
+
 fn read_part_from(mut input: impl Read + Seek) -> Result<Part, String> {
     let start = input.stream_position().map_err(|e| e.to_string())?;
     let meta = exr::meta::MetaData::read_from_buffered(&mut input, false)
