@@ -243,8 +243,8 @@ impl<'a, 'input> Loader<'a, 'input> {
                 builder.warn(format!(
                     "{file}:{}: <{}>: id '{}' was already given at line {}; references use this later one",
                     line(n),
-                    crate::input::quote(id),
                     n.tag_name().name(),
+                    crate::input::quote(id),
                     line(first)
                 ));
             }
