@@ -3,7 +3,7 @@
 //! `cargo run --release --example fireflies -- a.exr b.exr ...`
 //! (`FACTOR=2` for another threshold, `SHOW=1` to list the pixels)
 
-use hybrid::render::sampling::luminance;
+use hybrid::geom::sampling::luminance;
 use hybrid::report::fireflies::count_fireflies;
 
 fn main() {

@@ -13,6 +13,7 @@
 //! - [`input`]: how user files are read (regular files, caps, quoting).
 
 pub mod accel;
+pub mod geom;
 pub mod choice;
 pub mod cli;
 pub mod input;

@@ -7,8 +7,9 @@ use glam::Vec3;
 
 use super::native::sphere::intersect_sphere;
 use super::native::triangle::{MollerTrumbore, TriangleTest};
-use super::{Accel, AccelStats, Hit, Ray, TraceCounters};
-use crate::scene::{unit, Scene};
+use super::{Accel, AccelStats, TraceCounters};
+use crate::geom::{Hit, Ray};
+use crate::scene::Scene;
 
 pub struct BruteForce {
     /// `v0, e1, e2` per triangle, in scene order.
@@ -46,13 +47,11 @@ impl BruteForce {
             counters.prim_tests += 1;
             if let Some((t, u, v)) = MollerTrumbore::intersect(tri, &setup, ray.t_min, t_max) {
                 t_max = t;
-                let normal = unit(tri[1].cross(tri[2]));
                 best = Some(Hit {
                     t,
                     prim: i as u32,
                     u,
                     v,
-                    normal,
                 });
                 if any {
                     return best;
@@ -69,7 +68,6 @@ impl BruteForce {
                     prim,
                     u: 0.0,
                     v: 0.0,
-                    normal: (ray.at(t) - c).normalize_or_zero(),
                 });
                 if any {
                     return best;

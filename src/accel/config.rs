@@ -8,7 +8,8 @@ use super::embree::{BuildQuality, Embree3, Embree4, EmbreeAccel, EmbreeOptions, 
 use super::native::build::BuildMethod;
 use super::native::triangle::TriangleMode;
 use super::native::{NativeBvh, NativeOptions};
-use super::{brute, Accel, AccelError, AccelStats, Hit, Ray, TraceCounters};
+use super::{brute, Accel, AccelError, AccelStats, TraceCounters};
+use crate::geom::{Hit, Ray};
 use crate::choice::Choice;
 use crate::scene::Scene;
 

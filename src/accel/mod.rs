@@ -11,33 +11,16 @@
 //! ([`crate::scene::Scene::surface_point`]), the same way for every backend.
 //! [`Backend`] is the tagged union the program chooses at run time; which
 //! one, with which options, is a [`BackendConfig`] (`config.rs`), the one
-//! place that names them. [`ray`] holds the rules every consumer shares.
+//! place that names them. Rays and hits are the base layer's
+//! ([`crate::geom`]).
 
 pub mod brute;
 pub mod config;
 pub mod embree;
 pub mod native;
-pub mod ray;
-
-use glam::Vec3;
 
 pub use self::config::{Backend, BackendConfig};
-pub use self::ray::Ray;
-
-/// The closest hit along a ray: what every backend reports.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Hit {
-    pub t: f32,
-    /// Global primitive id: triangles first, then spheres.
-    pub prim: u32,
-    /// Barycentric weights of the triangle's corners 1 and 2 (corner 0 has
-    /// `1 - u - v`); zero for spheres.
-    pub u: f32,
-    pub v: f32,
-    /// Unit geometric normal: `normalize((v1 - v0) x (v2 - v0))` for
-    /// triangles, outward for spheres.
-    pub normal: Vec3,
-}
+use crate::geom::{Hit, Ray};
 
 /// Per-thread counters of the work a backend did; summed at the end of a
 /// render. Backends that cannot count tests (Embree) count rays only.
@@ -103,4 +86,8 @@ pub enum AccelError {
     Unavailable(String),
     #[error("{0}")]
     TooLarge(String),
+    /// A structure failed its own check after it was built: a bug,
+    /// reported as an error rather than traversed.
+    #[error("{0}")]
+    Internal(String),
 }

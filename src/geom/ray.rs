@@ -1,7 +1,7 @@
-//! Rays, and the rules every consumer of the accelerator shares: which rays
-//! a backend traces at all, where a secondary ray starts, and where a shadow
-//! ray stops. The renderer and the parity suite both build their rays here,
-//! so parity always tests the rays that are rendered.
+//! Rays and hits, and the rules every consumer of the accelerator shares:
+//! which rays a backend traces at all, where a secondary ray starts, and
+//! where a shadow ray stops. The renderer and the parity suite both build
+//! their rays here, so parity always tests the rays that are rendered.
 
 use glam::{Vec3, Vec3A};
 
@@ -14,6 +14,21 @@ pub struct Ray {
     pub t_max: f32,
 }
 
+/// The closest hit along a ray: what every backend reports, and all it
+/// reports. The shading data (position, normals, material) are derived
+/// from these once, above the backends
+/// (`Scene::surface_point`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Hit {
+    pub t: f32,
+    /// Global primitive id: triangles first, then spheres.
+    pub prim: u32,
+    /// Barycentric weights of the triangle's corners 1 and 2 (corner 0 has
+    /// `1 - u - v`); zero for spheres.
+    pub u: f32,
+    pub v: f32,
+}
+
 /// A point that secondary rays leave: its position, a bound on the
 /// rounding error of each coordinate (so the true surface point lies in
 /// `p ± error`), and the unit geometric normal there (either side).
@@ -22,14 +37,6 @@ pub struct SpawnPoint {
     pub p: Vec3,
     pub error: Vec3,
     pub ng: Vec3,
-}
-
-/// `n u / (1 - n u)` for the unit roundoff `u = 2^-24`: the relative error
-/// bound of `n` chained f32 operations (Higham; pbrt-v4's `gamma`).
-#[inline]
-pub fn gamma(n: u32) -> f32 {
-    let nu = n as f32 * (f32::EPSILON * 0.5);
-    nu / (1.0 - nu)
 }
 
 /// The largest ray origin or direction component any backend traces:

@@ -12,7 +12,8 @@ pub mod rays;
 use glam::Vec3;
 
 use crate::accel::config::{parity_candidates, PARITY_REFERENCE};
-use crate::accel::{Accel, AccelError, Backend, BackendConfig, Hit, Ray, TraceCounters};
+use crate::accel::{Accel, AccelError, Backend, BackendConfig, TraceCounters};
+use crate::geom::{Hit, Ray};
 use crate::scene::Scene;
 
 /// Hits agree in distance when
@@ -159,7 +160,10 @@ pub fn compare(
                 if x.prim == y.prim {
                     a.primitive_agree += 1;
                     a.same_primitive += 1;
-                    let ng = angle_degrees(x.normal, y.normal);
+                    let ng = angle_degrees(
+                        scene.geometric_normal(ray, &x),
+                        scene.geometric_normal(ray, &y),
+                    );
                     let sx = scene.surface_point(ray, &x).shading_normal;
                     let sy = scene.surface_point(ray, &y).shading_normal;
                     let ns = angle_degrees(sx, sy);

@@ -16,8 +16,8 @@
 use glam::{Mat4, Vec3};
 
 use super::camera_file::CourseCamera;
-use super::sampling::concentric_disk;
-use crate::accel::Ray;
+use crate::geom::sampling::concentric_disk;
+use crate::geom::Ray;
 use crate::scene::Scene;
 
 /// Depth of field: the lens radius and the distance in focus, along the

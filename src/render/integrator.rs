@@ -25,9 +25,10 @@ use super::light::{
     LightSample, LightSet,
 };
 use super::material::{self, emitted, is_specular};
-use super::sampling::{uniform_hemisphere, Frame, Rng, UNIFORM_HEMISPHERE_PDF};
-use crate::accel::ray::SpawnPoint;
-use crate::accel::{Accel, Ray, TraceCounters};
+use crate::geom::sampling::{uniform_hemisphere, Frame, Rng, UNIFORM_HEMISPHERE_PDF};
+use crate::geom::ray::SpawnPoint;
+use crate::accel::{Accel, TraceCounters};
+use crate::geom::Ray;
 use crate::scene::{Light, Material, Scene};
 
 /// How direct lighting is estimated at a diffuse or glossy vertex.
@@ -447,7 +448,7 @@ impl<'a, A: Accel> Integrator<'a, A> {
                         Some(hit) => {
                             let material =
                                 self.scene.materials[self.scene.material_of(hit.prim) as usize];
-                            emitted(&material, -wi.dot(hit.normal))
+                            emitted(&material, -wi.dot(self.scene.geometric_normal(&ray, &hit)))
                         }
                         None => self.sky(wi),
                     };

@@ -9,7 +9,7 @@ use std::sync::Arc;
 
 use glam::Vec3;
 
-use super::sampling::{cosine_hemisphere, luminance, uniform_sphere, Frame, Rng};
+use crate::geom::sampling::{cosine_hemisphere, luminance, uniform_sphere, Frame, Rng};
 use crate::scene::environment::Environment;
 use crate::scene::{Light, Scene};
 

@@ -16,7 +16,7 @@
 use glam::Vec3;
 use std::f32::consts::{FRAC_1_PI, PI};
 
-use super::sampling::{cosine_hemisphere, Rng};
+use crate::geom::sampling::{cosine_hemisphere, Rng};
 use crate::scene::Material;
 
 /// A sampled direction, its throughput weight `f * |cos| / pdf`, and the
@@ -578,7 +578,7 @@ mod tests {
                 importance += s.weight.x as f64;
             }
             let (u, v) = rng.next_2d();
-            let wi = super::super::sampling::uniform_hemisphere(u, v);
+            let wi = crate::geom::sampling::uniform_hemisphere(u, v);
             uniform += (eval(&m, wo, wi).x * wi.z) as f64 * 2.0 * std::f64::consts::PI;
         }
         let (a, b) = (importance / n as f64, uniform / n as f64);

@@ -1,7 +1,6 @@
 //! Rendering: camera rays through the accelerator, integrated per pixel.
 //!
 //! - [`camera`]: ray generation and framing;
-//! - [`sampling`]: random numbers and warps;
 //! - [`material`], [`light`]: scattering and light sampling;
 //! - [`integrator`]: normal shading and the path tracer;
 //! - [`film`]: the image and its files.
@@ -17,7 +16,7 @@ pub mod integrator;
 pub mod light;
 pub mod material;
 pub mod part;
-pub mod sampling;
+
 
 use std::time::Instant;
 
@@ -29,7 +28,7 @@ use self::camera_file::CourseCamera;
 use self::film::Film;
 use self::integrator::{Integrator, Shading};
 use self::part::Origin;
-use self::sampling::{luminance, pixel_position, Rng};
+use crate::geom::sampling::{luminance, pixel_position, Rng};
 use crate::accel::{Accel, TraceCounters};
 use crate::scene::Scene;
 
@@ -146,7 +145,7 @@ impl Progress for Silent {
 /// fixed scattering (the image does not depend on it, only the progress
 /// estimate does).
 fn scattered(row: u32) -> u64 {
-    sampling::mix(u64::from(row))
+    crate::geom::sampling::mix(u64::from(row))
 }
 
 /// Renders `scene` through `accel`.

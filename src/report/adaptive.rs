@@ -14,7 +14,7 @@ use super::{load, load_builtin};
 use crate::accel::{Accel, BackendConfig};
 use crate::render::film::Film;
 use crate::render::integrator::{PathSettings, Shading};
-use crate::render::sampling::luminance;
+use crate::geom::sampling::luminance;
 use crate::render::{render, Adaptive, RenderSettings, Silent};
 use crate::scene::builtin::{CORNELL, GLOSSY};
 use crate::scene::Scene;

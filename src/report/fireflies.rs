@@ -6,7 +6,7 @@ pub fn film_fireflies(film: &crate::render::film::Film, factor: f32) -> usize {
     let luminance: Vec<f32> = film
         .pixels
         .iter()
-        .map(|&p| crate::render::sampling::luminance(p))
+        .map(|&p| crate::geom::sampling::luminance(p))
         .collect();
     count_fireflies(
         &luminance,

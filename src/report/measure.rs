@@ -7,7 +7,8 @@ use std::time::Instant;
 use rayon::prelude::*;
 
 use super::table::Measured;
-use crate::accel::{Accel, Ray, TraceCounters};
+use crate::accel::{Accel, TraceCounters};
+use crate::geom::Ray;
 use crate::parity::rays;
 use crate::scene::Scene;
 

@@ -12,8 +12,8 @@ use super::plot::{loglog, loglog_slope, Series};
 use super::table::{Cell, Measured, Table};
 use crate::accel::config::compared;
 use crate::accel::BackendConfig;
-use crate::accel::Ray;
-use crate::render::sampling::Rng;
+use crate::geom::Ray;
+use crate::geom::sampling::Rng;
 use crate::scene::generate::{plate, SceneBuilder};
 use crate::scene::{Material, NormalMode, Scene};
 

@@ -20,7 +20,7 @@ use std::path::Path;
 
 use glam::Vec3;
 
-use crate::render::sampling::{luminance, uniform_sphere};
+use crate::geom::sampling::{luminance, uniform_sphere};
 
 /// Largest map read: 8192 x 4096 texels (about 0.5 GiB with its tables).
 /// The largest map file read (an uncompressed 4096 x 2048 RGBA float EXR
@@ -348,7 +348,7 @@ mod tests {
         let env = spotty();
         let mut counts = vec![0u32; 16 * 8];
         let n = 200_000;
-        let mut rng = crate::render::sampling::Rng::new(7, 1);
+        let mut rng = crate::geom::sampling::Rng::new(7, 1);
         for _ in 0..n {
             let (u, v) = rng.next_2d();
             let s = env.sample(u, v).expect("the map has light");
@@ -375,7 +375,7 @@ mod tests {
         // The integral of luminance over the sphere is the map's power: with
         // importance sampling every sample's L / pdf is that integral.
         let mut env = spotty();
-        let mut rng = crate::render::sampling::Rng::new(3, 2);
+        let mut rng = crate::geom::sampling::Rng::new(3, 2);
         for _ in 0..1000 {
             let (u, v) = rng.next_2d();
             let s = env.sample(u, v).unwrap();

@@ -151,7 +151,7 @@ pub fn white_furnace(albedo: f32, emission: f32) -> Scene {
 /// density, a harder case for a BVH than one smooth mesh. The same `seed`
 /// gives the same scene.
 pub fn sphere_cloud(count: u32, level: u32, seed: u64) -> Scene {
-    let mut rng = crate::render::sampling::Rng::new(seed, 21);
+    let mut rng = crate::geom::sampling::Rng::new(seed, 21);
     let (unit, tris) = icosphere(level);
     let mut b = SceneBuilder::new(&format!(
         "generated: {count} icospheres, {} triangles",

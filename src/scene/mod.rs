@@ -19,27 +19,7 @@ pub use self::material::Material;
 
 use glam::{Mat4, Vec3};
 
-use crate::accel::ray::{gamma, SpawnPoint};
-use crate::accel::{Hit, Ray};
-
-/// `v` scaled to unit length, or zero for a zero or non-finite `v`. Safe
-/// for any finite `v`: when its squared length overflows or underflows
-/// (a cross product of long edges, 1e12 squared and squared again), it is
-/// divided by its largest component first and still has a direction.
-/// Every hit pays for this, so the common case is one square root and one
-/// division.
-#[inline]
-pub fn unit(v: Vec3) -> Vec3 {
-    let squared = v.length_squared();
-    if squared > f32::MIN_POSITIVE && squared < f32::INFINITY {
-        return v / squared.sqrt();
-    }
-    let m = v.abs().max_element();
-    if !(m > 0.0) || !m.is_finite() {
-        return Vec3::ZERO;
-    }
-    (v / m).normalize_or_zero()
-}
+use crate::geom::{gamma, unit, Bounds, Hit, Ray, SpawnPoint};
 
 /// Which normal the shading uses.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
@@ -191,50 +171,6 @@ impl Default for CameraSpec {
     }
 }
 
-/// Axis-aligned bounding box.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Bounds {
-    pub min: Vec3,
-    pub max: Vec3,
-}
-
-impl Default for Bounds {
-    fn default() -> Self {
-        Bounds::EMPTY
-    }
-}
-
-impl Bounds {
-    pub const EMPTY: Bounds = Bounds {
-        min: Vec3::splat(f32::INFINITY),
-        max: Vec3::splat(f32::NEG_INFINITY),
-    };
-
-    pub fn grow(&mut self, p: Vec3) {
-        self.min = self.min.min(p);
-        self.max = self.max.max(p);
-    }
-
-    pub fn union(self, o: Bounds) -> Bounds {
-        Bounds {
-            min: self.min.min(o.min),
-            max: self.max.max(o.max),
-        }
-    }
-
-    pub fn is_empty(&self) -> bool {
-        self.min.x > self.max.x
-    }
-
-    pub fn center(&self) -> Vec3 {
-        (self.min + self.max) * 0.5
-    }
-
-    pub fn extent(&self) -> Vec3 {
-        self.max - self.min
-    }
-}
-
 /// A loaded scene.
 #[derive(Clone, Debug, Default)]
 pub struct Scene {
@@ -372,6 +308,17 @@ impl Scene {
         }
     }
 
+    /// The unit geometric normal at a hit: the triangle's winding
+    /// `(v1 - v0) x (v2 - v0)`, or the sphere's outward normal. The one
+    /// place it is computed; backends report only where they hit.
+    pub fn geometric_normal(&self, ray: &Ray, hit: &Hit) -> Vec3 {
+        let p = hit.prim as usize;
+        match p.checked_sub(self.mesh.len()) {
+            None => unit(self.mesh.face_normal(p)),
+            Some(s) => unit(ray.at(hit.t) - self.spheres[s].center),
+        }
+    }
+
     /// Shading data for `hit` of `ray`. Both backends' hits go through
     /// here, so shading never depends on the backend. The position is
     /// recomputed from the hit rather than taken as `o + t d` (pbrt-v4's
@@ -412,7 +359,7 @@ impl Scene {
             // its own triangle again at t ~ 0.
             let error =
                 gamma(9) * ((a * w).abs() + (b * u).abs() + (c * v).abs()) + Vec3::splat(margin);
-            let ng = unit(self.mesh.face_normal(p));
+            let ng = self.geometric_normal(ray, hit);
             let ns = match self.normal_mode {
                 NormalMode::Flat => ng,
                 NormalMode::Smooth => {
@@ -440,7 +387,7 @@ impl Scene {
             }
         } else {
             let s = &self.spheres[p - self.mesh.len()];
-            let n = unit(ray.at(hit.t) - s.center);
+            let n = self.geometric_normal(ray, hit);
             let position = s.center + n * s.radius;
             // The projection's rounding, and the sphere test's error in t
             // for a ray started at the point (a few ulps of the radius and

@@ -6,9 +6,11 @@ use hybrid::accel::native::build::BuildMethod;
 use hybrid::accel::native::node::{is_leaf, leaf_count};
 use hybrid::accel::native::triangle::TriangleMode;
 use hybrid::accel::native::{NativeBvh, NativeOptions};
-use hybrid::accel::{Accel, Hit, Ray, TraceCounters};
+use hybrid::accel::{Accel, TraceCounters};
+use hybrid::geom::{Hit, Ray};
 use hybrid::parity::rays;
-use hybrid::scene::{Bounds, Scene};
+use hybrid::scene::Scene;
+use hybrid::geom::Bounds;
 
 use crate::common::{self, scene_or_skip};
 

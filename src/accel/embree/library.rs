@@ -139,8 +139,6 @@ pub struct RawHit {
     pub primitive: u32,
     pub u: f32,
     pub v: f32,
-    /// Unnormalized geometric normal.
-    pub ng: [f32; 3],
 }
 
 /// `RTC_INVALID_GEOMETRY_ID`.

@@ -8,9 +8,9 @@
 //! - geometry 0 holds the triangles (primitive id = Embree's primID), a
 //!   second geometry the spheres (primitive id = triangle count + primID);
 //! - Embree's `u, v` are the weights of corners 1 and 2, as the trait's;
-//! - Embree's unnormalized `Ng` for triangles is `(v1 - v0) x (v2 - v0)` up
-//!   to sign (checked at build, see [`EmbreeAccel::build`]) and is
-//!   normalized; for spheres it points outward.
+//! - Embree's `Ng` is not read: the normal is derived from the scene above
+//!   the trait, so its convention (which Embree documents per version) does
+//!   not matter.
 //!
 //! Spheres use Embree's own sphere-point geometry rather than a user
 //! geometry: it keeps every query inside Embree (no Rust callback that could
@@ -32,16 +32,15 @@ mod sys4;
 
 use std::time::Instant;
 
-use glam::Vec3;
-
 use crate::choice::Choice;
 
 use self::ffi::{Api, Device, Scene as EmbreeScene, SceneBuilder};
 use self::library::RawHit;
 pub use self::sys3::Embree3;
 pub use self::sys4::Embree4;
-use super::{Accel, AccelError, AccelStats, Hit, Ray, TraceCounters};
-use crate::scene::{unit, Scene};
+use super::{Accel, AccelError, AccelStats, TraceCounters};
+use crate::geom::{Hit, Ray};
+use crate::scene::Scene;
 
 /// Embree's build quality.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
@@ -147,8 +146,6 @@ pub struct EmbreeAccel<'s, V: Version> {
     device: Device<V>,
     triangle_count: u32,
     sphere_geometry: u32,
-    /// -1 when Embree's triangle normal is `(v2 - v0) x (v1 - v0)`.
-    normal_sign: f32,
     options: EmbreeOptions,
     build_ms: f64,
     primitives: usize,
@@ -192,48 +189,18 @@ impl<'s, V: Version> EmbreeAccel<'s, V> {
         }
         let committed = builder.commit(&device).map_err(AccelError::Embree)?;
         let build_ms = start.elapsed().as_secs_f64() * 1e3;
-        let mut accel = EmbreeAccel {
+        Ok(EmbreeAccel {
             scene: committed,
             device,
             triangle_count: scene.mesh.len() as u32,
             sphere_geometry,
-            normal_sign: 1.0,
             options: EmbreeOptions {
                 version: V::VERSION,
                 ..*options
             },
             build_ms,
             primitives: scene.primitive_count(),
-        };
-        accel.normal_sign = accel.probe_normal_sign(scene);
-        Ok(accel)
-    }
-
-    /// Embree documents its triangle normal convention per version; rather
-    /// than trust one, shoot one ray at the first triangle the backend can
-    /// hit and compare with the scene's `(v1 - v0) x (v2 - v0)`.
-    fn probe_normal_sign(&self, scene: &Scene) -> f32 {
-        for i in 0..scene.mesh.len().min(64) {
-            let [a, b, c] = scene.mesh.corners(i);
-            let n = (b - a).cross(c - a);
-            if n.length_squared() == 0.0 {
-                continue;
-            }
-            let centroid = (a + b + c) / 3.0;
-            let n = unit(n);
-            let origin = centroid + n * 1e-3 * (b - a).length().max(1e-6);
-            let probe = (origin.to_array(), (-n).to_array(), 0.0, f32::INFINITY);
-            if let Some(hit) = self.scene.intersect(probe) {
-                if hit.primitive == i as u32 && hit.geometry == 0 {
-                    return if Vec3::from(hit.ng).dot(n) < 0.0 {
-                        -1.0
-                    } else {
-                        1.0
-                    };
-                }
-            }
-        }
-        1.0
+        })
     }
 
     /// Embree's version and the ISA family it runs.
@@ -255,14 +222,12 @@ impl<'s, V: Version> EmbreeAccel<'s, V> {
     /// Embree's answer in the trait's conventions.
     #[inline]
     fn to_hit(&self, h: &RawHit) -> Hit {
-        let ng = Vec3::from(h.ng);
         if h.geometry == self.sphere_geometry {
             return Hit {
                 t: h.t,
                 prim: self.triangle_count + h.primitive,
                 u: 0.0,
                 v: 0.0,
-                normal: unit(ng),
             };
         }
         Hit {
@@ -270,7 +235,6 @@ impl<'s, V: Version> EmbreeAccel<'s, V> {
             prim: h.primitive,
             u: h.u,
             v: h.v,
-            normal: unit(ng * self.normal_sign),
         }
     }
 }

@@ -99,7 +99,6 @@ fn raw_hit(rh: &raw::RTCRayHit) -> Option<RawHit> {
         primitive: rh.hit.primID,
         u: rh.hit.u,
         v: rh.hit.v,
-        ng: [rh.hit.Ng_x, rh.hit.Ng_y, rh.hit.Ng_z],
     })
 }
 

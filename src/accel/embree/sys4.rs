@@ -225,7 +225,6 @@ fn raw_hit(rh: &RayHit) -> Option<RawHit> {
         primitive: hit.primID,
         u: hit.u,
         v: hit.v,
-        ng: [hit.Ng_x, hit.Ng_y, hit.Ng_z],
     })
 }
 

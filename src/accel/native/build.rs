@@ -15,7 +15,7 @@ use glam::{Vec3A, Vec4};
 use rayon::prelude::*;
 
 use super::node::{is_leaf, leaf, ChildRef, Node8, EMPTY, WIDTH};
-use crate::scene::Bounds;
+use crate::geom::Bounds;
 
 /// How splits are chosen.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]

@@ -3,7 +3,8 @@
 //!
 //! - [`build`]: binned SAH, building the 8-wide tree directly;
 //! - [`node`]: the 256-byte node with per-octant child orders;
-//! - [`traverse`]: the AVX2 and scalar kernels;
+//! - [`tree`]: the node list the kernels may trust, checked once;
+//! - `traverse`: the AVX2 and scalar kernels, private to the backend;
 //! - [`triangle`], [`sphere`]: the primitive tests;
 //! - [`cpu`]: the token that proves AVX2 was detected.
 //!
@@ -17,7 +18,8 @@ mod memory;
 pub mod node;
 mod pack;
 pub mod sphere;
-pub mod traverse;
+mod traverse;
+pub mod tree;
 pub mod triangle;
 
 use std::time::Instant;
@@ -28,11 +30,13 @@ use rayon::prelude::*;
 use self::build::{BuildMethod, BuiltTree, TreeShape};
 use self::cpu::Avx2;
 use self::node::{Node8, MAX_LEAF_FIRST};
-use self::traverse::{BoxRay, BoxTest, Leaves, Work, MAX_DEPTH};
+use self::traverse::{BoxRay, BoxTest, Leaves, Work};
+use self::tree::{Tree, MAX_DEPTH};
 use self::triangle::{TriangleBlock4, TriangleMode, TriangleTest, Watertight};
-use super::{Accel, AccelError, AccelStats, Hit, Ray, TraceCounters};
+use super::{Accel, AccelError, AccelStats, TraceCounters};
 use crate::choice::Choice;
-use crate::scene::{unit, Bounds, Scene};
+use crate::scene::Scene;
+use crate::geom::{Bounds, Hit, Ray};
 
 /// Build and traversal options of the native backend.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -107,9 +111,9 @@ pub struct NativeBvh {
     options: NativeOptions,
     cpu: Option<Avx2>,
     box_test: BoxTest,
-    triangles: Vec<Node8>,
+    triangles: Tree,
     triangle_store: TriangleStore,
-    spheres: Vec<Node8>,
+    spheres: Tree,
     sphere_items: Vec<SphereItem>,
     build_ms: f64,
     shape: TreeShape,
@@ -127,6 +131,12 @@ fn build_bounded(boxes: &[Bounds], options: &NativeOptions) -> BuiltTree {
         return tree;
     }
     build::build(boxes, max_leaf, BuildMethod::Median)
+}
+
+/// The built nodes as a [`Tree`]; the builder's trees always pass, so an
+/// error here is a bug in it, reported rather than traversed.
+fn checked(nodes: Vec<Node8>) -> Result<Tree, AccelError> {
+    Tree::new(nodes).map_err(|e| AccelError::Internal(format!("native: malformed tree ({e})")))
 }
 
 fn bounds_of(points: &[Vec3]) -> Bounds {
@@ -224,9 +234,9 @@ impl NativeBvh {
                 TriangleMode::MollerTrumbore => BoxTest::Fast,
                 TriangleMode::Watertight => BoxTest::Robust,
             },
-            triangles,
+            triangles: checked(triangles)?,
             triangle_store,
-            spheres,
+            spheres: checked(spheres)?,
             sphere_items,
             build_ms: start.elapsed().as_secs_f64() * 1e3,
             shape: TreeShape {
@@ -250,7 +260,7 @@ impl NativeBvh {
 
     /// The triangle tree's nodes, for inspection (tests, statistics).
     pub fn triangle_nodes(&self) -> &[Node8] {
-        &self.triangles
+        self.triangles.nodes()
     }
 
     /// Primitive ids of the triangles of leaf `r` (a leaf reference of
@@ -298,16 +308,11 @@ impl NativeBvh {
                     &mut leaves,
                     &mut work,
                 );
-                leaves.best.map(|(b, lane, u, v)| {
-                    let block = &blocks[b as usize];
-                    let [_, e1, e2] = block.lane(lane);
-                    Hit {
-                        t: t_max,
-                        prim: block.prim(lane),
-                        u,
-                        v,
-                        normal: unit(e1.cross(e2)),
-                    }
+                leaves.best.map(|(b, lane, u, v)| Hit {
+                    t: t_max,
+                    prim: blocks[b as usize].prim(lane),
+                    u,
+                    v,
                 })
             }
             TriangleStore::Corners(corners) => {
@@ -342,13 +347,11 @@ impl NativeBvh {
         };
         self.walk_closest(&self.triangles, box_ray, t_max, &mut leaves, work);
         let (slot, u, v) = leaves.best?;
-        let (tri, prim) = &corners[slot as usize];
         Some(Hit {
             t: *t_max,
-            prim: *prim,
+            prim: corners[slot as usize].1,
             u,
             v,
-            normal: unit((tri[1] - tri[0]).cross(tri[2] - tri[0])),
         })
     }
 
@@ -373,14 +376,13 @@ impl NativeBvh {
             prim: s.prim,
             u: 0.0,
             v: 0.0,
-            normal: (ray.at(*t_max) - s.center).normalize_or_zero(),
         })
     }
 
     #[inline(always)]
     fn walk_closest<L: Leaves>(
         &self,
-        nodes: &[Node8],
+        nodes: &Tree,
         ray: &BoxRay,
         t_max: &mut f32,
         leaves: &mut L,
@@ -392,7 +394,7 @@ impl NativeBvh {
     #[inline(always)]
     fn walk_any<L: Leaves>(
         &self,
-        nodes: &[Node8],
+        nodes: &Tree,
         ray: &BoxRay,
         t_max: f32,
         leaves: &mut L,
@@ -602,8 +604,8 @@ impl Accel for NativeBvh {
                     TriangleStore::Corners(c) => c.len(),
                 },
             build_ms: self.build_ms,
-            memory_bytes: std::mem::size_of_val(self.triangles.as_slice())
-                + std::mem::size_of_val(self.spheres.as_slice())
+            memory_bytes: std::mem::size_of_val(self.triangles.nodes())
+                + std::mem::size_of_val(self.spheres.nodes())
                 + store
                 + std::mem::size_of_val(self.sphere_items.as_slice()),
             nodes: self.shape.nodes,

@@ -8,7 +8,7 @@
 
 use glam::Vec3;
 
-use crate::scene::Bounds;
+use crate::geom::Bounds;
 
 /// Children per node.
 pub const WIDTH: usize = 8;
@@ -257,7 +257,7 @@ mod tests {
     fn descending_is_a_stable_sort_of_any_keys() {
         let mut state = 7u64;
         let mut next = || {
-            state = crate::render::sampling::mix(state);
+            state = crate::geom::sampling::mix(state);
             state
         };
         for _ in 0..2000 {

@@ -6,7 +6,7 @@
 
 use glam::Vec3;
 
-use crate::accel::Ray;
+use crate::geom::Ray;
 
 /// The nearest root in `(t_min, t_max]` of the ray against the sphere.
 #[inline]

@@ -42,11 +42,9 @@ use super::cpu::Avx2;
 #[cfg(target_arch = "x86_64")]
 use super::node::COMPRESS;
 use super::node::{is_leaf, leaf_count, leaf_first, ChildRef, Node8, WIDTH};
+use super::tree::{Tree, MAX_DEPTH};
 use super::BOX_FAR_SCALE;
 
-/// Deepest tree (in wide levels) the kernels' fixed stacks hold; deeper
-/// SAH trees are rebuilt by median splits (see `NativeBvh::build`).
-pub const MAX_DEPTH: usize = 64;
 /// Stack entries: each level leaves at most seven children behind, and a
 /// push writes eight.
 const STACK: usize = (WIDTH - 1) * MAX_DEPTH + WIDTH + 1;
@@ -152,7 +150,7 @@ pub enum BoxTest {
 /// hit. `cpu` picks the AVX2 kernel.
 #[inline(always)]
 pub fn closest<L: Leaves>(
-    nodes: &[Node8],
+    tree: &Tree,
     ray: &BoxRay,
     t_max: &mut f32,
     leaves: &mut L,
@@ -160,7 +158,7 @@ pub fn closest<L: Leaves>(
     test: BoxTest,
     work: &mut Work,
 ) -> bool {
-    if nodes.is_empty() {
+    if tree.is_empty() {
         return false;
     }
     #[cfg(target_arch = "x86_64")]
@@ -168,20 +166,20 @@ pub fn closest<L: Leaves>(
         // SAFETY: the token proves the CPU has the kernels' features.
         return unsafe {
             if test == BoxTest::Fast && ray.fast_test_fits() {
-                avx2::closest::<false, L>(cpu, nodes, ray, t_max, leaves, work)
+                avx2::closest::<false, L>(cpu, tree, ray, t_max, leaves, work)
             } else {
-                avx2::closest::<true, L>(cpu, nodes, ray, t_max, leaves, work)
+                avx2::closest::<true, L>(cpu, tree, ray, t_max, leaves, work)
             }
         };
     }
     let _ = (cpu, test);
-    scalar::closest(nodes, ray, t_max, leaves, work)
+    scalar::closest(tree, ray, t_max, leaves, work)
 }
 
 /// Whether anything lies within `t_max`.
 #[inline(always)]
 pub fn any<L: Leaves>(
-    nodes: &[Node8],
+    tree: &Tree,
     ray: &BoxRay,
     t_max: f32,
     leaves: &mut L,
@@ -189,7 +187,7 @@ pub fn any<L: Leaves>(
     test: BoxTest,
     work: &mut Work,
 ) -> bool {
-    if nodes.is_empty() {
+    if tree.is_empty() {
         return false;
     }
     #[cfg(target_arch = "x86_64")]
@@ -197,14 +195,14 @@ pub fn any<L: Leaves>(
         // SAFETY: the token proves the CPU has the kernels' features.
         return unsafe {
             if test == BoxTest::Fast && ray.fast_test_fits() {
-                avx2::any::<false, L>(cpu, nodes, ray, t_max, leaves, work)
+                avx2::any::<false, L>(cpu, tree, ray, t_max, leaves, work)
             } else {
-                avx2::any::<true, L>(cpu, nodes, ray, t_max, leaves, work)
+                avx2::any::<true, L>(cpu, tree, ray, t_max, leaves, work)
             }
         };
     }
     let _ = (cpu, test);
-    scalar::any(nodes, ray, t_max, leaves, work)
+    scalar::any(tree, ray, t_max, leaves, work)
 }
 
 /// The portable kernels: the robust box test lane by lane, children
@@ -310,7 +308,7 @@ mod scalar {
     /// crowd the callers' fast path.
     #[inline(never)]
     pub fn closest<L: Leaves>(
-        nodes: &[Node8],
+        tree: &Tree,
         ray: &BoxRay,
         t_max: &mut f32,
         leaves: &mut L,
@@ -322,7 +320,7 @@ mod scalar {
         let mut hit = false;
         loop {
             if !is_leaf(current) {
-                let node = &nodes[current as usize];
+                let node = &tree.nodes()[current as usize];
                 work.nodes += 1;
                 let (near, mask) = slab(node, ray, *t_max);
                 if mask != 0 {
@@ -352,7 +350,7 @@ mod scalar {
     /// Out of line, as [`closest`].
     #[inline(never)]
     pub fn any<L: Leaves>(
-        nodes: &[Node8],
+        tree: &Tree,
         ray: &BoxRay,
         t_max: f32,
         leaves: &mut L,
@@ -362,7 +360,7 @@ mod scalar {
         let mut current: ChildRef = 0;
         loop {
             if !is_leaf(current) {
-                let node = &nodes[current as usize];
+                let node = &tree.nodes()[current as usize];
                 work.nodes += 1;
                 let (_, mask) = slab(node, ray, t_max);
                 if mask != 0 {
@@ -471,11 +469,11 @@ mod avx2 {
     /// (prefetches never fault, whatever the address).
     #[target_feature(enable = "avx2,fma,popcnt,lzcnt,bmi1,bmi2")]
     #[inline]
-    fn prefetch<L: Leaves>(nodes: &[Node8], leaves: &L, r: ChildRef) {
+    fn prefetch<L: Leaves>(tree: &Tree, leaves: &L, r: ChildRef) {
         let p = if is_leaf(r) {
             leaves.address(leaf_first(r))
         } else {
-            nodes.as_ptr().wrapping_add(r as usize).cast::<u8>()
+            tree.nodes().as_ptr().wrapping_add(r as usize).cast::<u8>()
         };
         for line in 0..4 {
             _mm_prefetch::<_MM_HINT_T0>(p.wrapping_add(64 * line).cast());
@@ -529,13 +527,13 @@ mod avx2 {
     }
 
     /// # Safety
-    /// Needs the token's CPU features (AVX2, FMA, bit counting); `nodes`
-    /// is a tree built by `build.rs` (node 0 the root, depth at most
-    /// [`MAX_DEPTH`]).
+    /// Needs the token's CPU features (AVX2, FMA, bit counting) and a
+    /// non-empty `tree`; its type proves the rest (references in range,
+    /// depth at most [`MAX_DEPTH`], so the stack holds every push).
     #[target_feature(enable = "avx2,fma,popcnt,lzcnt,bmi1,bmi2")]
     pub unsafe fn closest<const ROBUST: bool, L: Leaves>(
         _cpu: Avx2,
-        nodes: &[Node8],
+        tree: &Tree,
         ray: &BoxRay,
         t_max: &mut f32,
         leaves: &mut L,
@@ -554,9 +552,9 @@ mod avx2 {
         let mut hit = false;
         loop {
             if !is_leaf(current) {
-                // SAFETY: inner references index `nodes` (the builder's
-                // invariant).
-                let node = nodes.get_unchecked(current as usize);
+                // SAFETY: `current` is the root of a non-empty tree or an
+                // inner reference read from one of its nodes.
+                let node = tree.node_unchecked(current);
                 work.nodes += 1;
                 let (near, hits) = slab::<ROBUST>(node, &l, far);
                 let mask = _mm256_movemask_ps(hits) as u32;
@@ -575,7 +573,7 @@ mod avx2 {
                 if top > 0 {
                     // The next entry is fetched while the leaf is tested.
                     // SAFETY: entries below `top` were written by `push`.
-                    prefetch(nodes, leaves, *refs.add(top - 1));
+                    prefetch(tree, leaves, *refs.add(top - 1));
                 }
                 let count = leaf_count(current);
                 work.items += count as u64;
@@ -604,7 +602,7 @@ mod avx2 {
     #[target_feature(enable = "avx2,fma,popcnt,lzcnt,bmi1,bmi2")]
     pub unsafe fn any<const ROBUST: bool, L: Leaves>(
         _cpu: Avx2,
-        nodes: &[Node8],
+        tree: &Tree,
         ray: &BoxRay,
         t_max: f32,
         leaves: &mut L,
@@ -619,7 +617,7 @@ mod avx2 {
         loop {
             if !is_leaf(current) {
                 // SAFETY: as in `closest`.
-                let node = nodes.get_unchecked(current as usize);
+                let node = tree.node_unchecked(current);
                 work.nodes += 1;
                 let (_, hits) = slab::<ROBUST>(node, &l, far);
                 let mask = _mm256_movemask_ps(hits) as u32;
@@ -635,7 +633,7 @@ mod avx2 {
                 if top > 0 {
                     // The next entry is fetched while the leaf is tested.
                     // SAFETY: entries below `top` were written by `push`.
-                    prefetch(nodes, leaves, *refs.add(top - 1));
+                    prefetch(tree, leaves, *refs.add(top - 1));
                 }
                 let count = leaf_count(current);
                 work.items += count as u64;
@@ -656,7 +654,7 @@ mod avx2 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::render::sampling::Rng;
+    use crate::geom::sampling::Rng;
     use glam::{DVec3, Vec3};
 
     /// The fast test of one box as the AVX2 kernel computes it: one fused

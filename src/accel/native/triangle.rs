@@ -15,7 +15,7 @@
 
 use glam::Vec3;
 
-use crate::accel::Ray;
+use crate::geom::Ray;
 
 /// Per-ray data of the watertight test, computed once per ray.
 #[derive(Clone, Copy, Debug)]

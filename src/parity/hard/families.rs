@@ -5,8 +5,9 @@
 use glam::Vec3;
 
 use super::{Case, Expect};
-use crate::accel::{Accel, BackendConfig, Ray, TraceCounters};
-use crate::render::sampling::{cosine_hemisphere, uniform_sphere, Frame, Rng};
+use crate::accel::{Accel, BackendConfig, TraceCounters};
+use crate::geom::Ray;
+use crate::geom::sampling::{cosine_hemisphere, uniform_sphere, Frame, Rng};
 use crate::scene::generate::{cube, icosphere, plate, SceneBuilder};
 use crate::scene::{Material, NormalMode, Scene};
 

@@ -22,7 +22,8 @@ use glam::Vec3;
 
 use crate::accel::config::hard_case_modes;
 use crate::accel::native::triangle::{MollerTrumbore, TriangleMode, TriangleTest, Watertight};
-use crate::accel::{Accel, AccelError, BackendConfig, Hit, Ray, TraceCounters};
+use crate::accel::{Accel, AccelError, BackendConfig, TraceCounters};
+use crate::geom::{Hit, Ray};
 use crate::scene::Scene;
 
 /// What a ray should find.
@@ -97,7 +98,7 @@ pub struct CaseReport {
 }
 
 fn is_nan(h: &Hit) -> bool {
-    !h.t.is_finite() || !h.normal.is_finite() || h.u.is_nan() || h.v.is_nan()
+    !h.t.is_finite() || h.u.is_nan() || h.v.is_nan()
 }
 
 fn judge(expect: Expect, hit: Option<Hit>) -> (bool, f32) {
