@@ -8,7 +8,7 @@
 use std::time::Instant;
 
 use hybrid::accel::BackendConfig;
-use hybrid::report::measure::{on_threads, Timing};
+use hybrid::report::measure::{on_threads, Measured};
 use hybrid::scene::{collada, NormalMode};
 
 fn main() {
@@ -43,7 +43,7 @@ fn main() {
         }
         let medians: Vec<f64> = times
             .into_iter()
-            .map(|t| Timing::from_samples(t).median)
+            .map(|t| Measured::from_samples(t).median)
             .collect();
         let line: Vec<String> = configs
             .iter()

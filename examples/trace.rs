@@ -7,7 +7,7 @@ use std::time::Instant;
 
 use hybrid::accel::config::compared;
 use hybrid::accel::{Accel, BackendConfig};
-use hybrid::report::measure::{on_threads, ray_sets, trace_all, Timing};
+use hybrid::report::measure::{on_threads, ray_sets, trace_all, Measured};
 use hybrid::scene::{collada, NormalMode};
 
 fn main() {
@@ -33,7 +33,7 @@ fn main() {
                 collada::load(path.as_ref(), NormalMode::Smooth).expect("scene loads")
             };
             let compared = compared();
-            let builds: Vec<Timing> = compared
+            let builds: Vec<Measured> = compared
                 .iter()
                 .map(|c| {
                     let c = c.with_threads(1);
@@ -43,7 +43,7 @@ fn main() {
                         std::hint::black_box(c.build(&scene).expect("builds"));
                         v.push(t.elapsed().as_secs_f64());
                     }
-                    Timing::from_samples(v[1..].to_vec())
+                    Measured::from_samples(v[1..].to_vec())
                 })
                 .collect();
             let backends: Vec<_> = compared
@@ -81,9 +81,9 @@ fn main() {
                         }
                     }
                 }
-                let t: Vec<Timing> = times.into_iter().map(Timing::from_samples).collect();
-                let m = |t: &Timing| set.rays.len() as f64 / t.median / 1e6;
-                let spread = |t: &Timing| 100.0 * (t.max - t.min) / t.median;
+                let t: Vec<Measured> = times.into_iter().map(Measured::from_samples).collect();
+                let m = |t: &Measured| set.rays.len() as f64 / t.median / 1e6;
+                let spread = |t: &Measured| 100.0 * (t.max - t.min) / t.median;
                 let others: Vec<String> = compared[1..]
                     .iter()
                     .zip(&t[1..])

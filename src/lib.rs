@@ -13,9 +13,9 @@
 //! - [`input`]: how user files are read (regular files, caps, quoting).
 
 pub mod accel;
-pub mod geom;
 pub mod choice;
 pub mod cli;
+pub mod geom;
 pub mod input;
 pub mod parity;
 pub mod render;

@@ -9,8 +9,8 @@ use super::native::build::BuildMethod;
 use super::native::triangle::TriangleMode;
 use super::native::{NativeBvh, NativeOptions};
 use super::{brute, Accel, AccelError, AccelStats, TraceCounters};
-use crate::geom::{Hit, Ray};
 use crate::choice::Choice;
+use crate::geom::{Hit, Ray};
 use crate::scene::Scene;
 
 /// The backend chosen at run time, as a tagged union: static dispatch on

@@ -3,13 +3,13 @@
 
 use glam::Vec3;
 
-use crate::geom::ray::SpawnPoint;
 use crate::accel::{Accel, TraceCounters};
+use crate::geom::ray::SpawnPoint;
+pub use crate::geom::sampling::uniform_sphere;
+use crate::geom::sampling::{cosine_hemisphere, Frame, Rng};
 use crate::geom::Ray;
 use crate::render::camera::{Camera, CameraMode};
 use crate::render::light::sample_li;
-pub use crate::geom::sampling::uniform_sphere;
-use crate::geom::sampling::{cosine_hemisphere, Frame, Rng};
 use crate::scene::Scene;
 
 /// Camera rays in the order a renderer sends them: 8x8-pixel tiles of a

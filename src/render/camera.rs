@@ -132,7 +132,10 @@ impl Camera {
             lens: None,
             fov: (c.hfov, c.vfov),
         }
-        .with_lens(c.lens())
+        .with_lens((c.lens_radius > 0.0).then_some(ThinLens {
+            radius: c.lens_radius,
+            focal_distance: c.focal_distance,
+        }))
     }
 
     /// The course camera file of this camera (`--save-camera`): reading it

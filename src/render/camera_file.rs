@@ -22,8 +22,6 @@
 
 use glam::Vec3;
 
-use super::camera::ThinLens;
-
 /// The groups of the file, in order: name and size.
 const GROUPS: [(&str, usize); 6] = [
     ("hFov vFov aspect nClip fClip", 5),
@@ -135,14 +133,6 @@ impl CourseCamera {
             screen: (v(25), v(26)),
             focal_distance,
             lens_radius,
-        })
-    }
-
-    /// The file's lens, if it has one.
-    pub fn lens(&self) -> Option<ThinLens> {
-        (self.lens_radius > 0.0).then_some(ThinLens {
-            radius: self.lens_radius,
-            focal_distance: self.focal_distance,
         })
     }
 

@@ -25,9 +25,9 @@ use super::light::{
     LightSample, LightSet,
 };
 use super::material::{self, emitted, is_specular};
-use crate::geom::sampling::{uniform_hemisphere, Frame, Rng, UNIFORM_HEMISPHERE_PDF};
-use crate::geom::ray::SpawnPoint;
 use crate::accel::{Accel, TraceCounters};
+use crate::geom::ray::SpawnPoint;
+use crate::geom::sampling::{uniform_hemisphere, Frame, Rng, UNIFORM_HEMISPHERE_PDF};
 use crate::geom::Ray;
 use crate::scene::{Light, Material, Scene};
 

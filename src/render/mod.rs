@@ -17,7 +17,6 @@ pub mod light;
 pub mod material;
 pub mod part;
 
-
 use std::time::Instant;
 
 use glam::{DVec3, Vec3};
@@ -26,10 +25,10 @@ use rayon::prelude::*;
 use self::camera::{Camera, CameraMode, ThinLens};
 use self::camera_file::CourseCamera;
 use self::film::Film;
+use self::film::Origin;
 use self::integrator::{Integrator, Shading};
-use self::part::Origin;
-use crate::geom::sampling::{luminance, pixel_position, Rng};
 use crate::accel::{Accel, TraceCounters};
+use crate::geom::sampling::{luminance, pixel_position, Rng};
 use crate::scene::Scene;
 
 /// Adaptive sampling (`-a BATCH TOL`).

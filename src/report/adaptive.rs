@@ -8,13 +8,13 @@ use std::path::Path;
 
 use super::budget::{Budget, SERIES_SCENE};
 use super::error::rmse;
-use super::measure::Timing;
+use super::measure::Measured;
 use super::table::{Cell, Table};
 use super::{load, load_builtin};
 use crate::accel::{Accel, BackendConfig};
+use crate::geom::sampling::luminance;
 use crate::render::film::Film;
 use crate::render::integrator::{PathSettings, Shading};
-use crate::geom::sampling::luminance;
 use crate::render::{render, Adaptive, RenderSettings, Silent};
 use crate::scene::builtin::{CORNELL, GLOSSY};
 use crate::scene::Scene;
@@ -144,7 +144,7 @@ fn timed<A: Accel>(scene: &Scene, accel: &A, s: &RenderSettings, budget: &Budget
     let seconds = (0..budget.repeats.min(3))
         .map(|_| render(scene, accel, s, &Silent).seconds)
         .collect();
-    (Timing::from_samples(seconds).median, film)
+    (Measured::from_samples(seconds).median, film)
 }
 
 pub fn table(study: &AdaptiveStudy) -> Table {

@@ -5,8 +5,9 @@ use std::path::Path;
 
 use super::budget::{Budget, BRUTE_FORCE_SCENES};
 use super::load;
+use super::measure::Measured;
 use super::measure::{mrays, Query};
-use super::table::{Cell, Measured, Table};
+use super::table::{Cell, Table};
 use crate::accel::config::with_and_without;
 use crate::accel::BackendConfig;
 use crate::parity::rays;

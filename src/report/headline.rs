@@ -4,7 +4,7 @@
 //! per-scene rows.
 
 use super::scenes::{BuildRow, SceneResult};
-use super::table::{Cell, Flag, Measured, Table};
+use super::table::{Cell, Flag, Table};
 use crate::accel::BackendConfig;
 
 /// The Embree backends the headline compares native with: every compared
@@ -25,8 +25,7 @@ fn rivals(results: &[SceneResult]) -> Vec<(usize, String)> {
 fn build_ratio(r: &SceneResult, i: usize, j: usize, all: bool) -> Cell {
     match (r.build(&r.compared[i]), r.build(&r.compared[j])) {
         (Some(a), Some(b)) => {
-            let pick =
-                |b: &BuildRow| Measured::seconds(if all { &b.all_threads } else { &b.one_thread });
+            let pick = |b: &BuildRow| *(if all { &b.all_threads } else { &b.one_thread });
             let (ta, tb) = (pick(a), pick(b));
             let slower = |b: &BuildRow| b.all_threads.median > b.one_thread.median;
             Cell::ratio_of(tb.median / ta.median, &[ta, tb])

@@ -1,4 +1,4 @@
-//! Timing: medians of warmed-up repeats, ray throughput of a backend (or
+//! Measurement: medians of warmed-up repeats, ray throughput of a backend (or
 //! of two, interleaved) on a fixed ray set, single-threaded or on a pool,
 //! and the ray sets the report and the benches measure.
 
@@ -6,44 +6,80 @@ use std::time::Instant;
 
 use rayon::prelude::*;
 
-use super::table::Measured;
 use crate::accel::{Accel, TraceCounters};
 use crate::geom::Ray;
 use crate::parity::rays;
 use crate::scene::Scene;
 
-/// Median and spread of repeated measurements.
+/// Repeats whose spread (max - min over the median) exceeds this are
+/// marked noisy in the Markdown and flagged in the JSON.
+pub const NOISY_SPREAD: f64 = 0.10;
+
+/// A figure measured several times: its median, smallest and largest value.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct Timing {
+pub struct Measured {
     pub median: f64,
     pub min: f64,
     pub max: f64,
 }
 
-impl Timing {
-    pub fn from_samples(mut v: Vec<f64>) -> Timing {
+impl Measured {
+    /// The median and range of `v` (zero when empty).
+    pub fn from_samples(mut v: Vec<f64>) -> Measured {
         v.sort_by(f64::total_cmp);
         let n = v.len();
         if n == 0 {
-            return Timing::default();
+            return Measured::default();
         }
         let median = if n % 2 == 1 {
             v[n / 2]
         } else {
             0.5 * (v[n / 2 - 1] + v[n / 2])
         };
-        Timing {
+        Measured {
             median,
             min: v[0],
             max: v[n - 1],
         }
     }
+
+    /// Milliseconds of a timing given in seconds.
+    pub fn millis(t: &Measured) -> Measured {
+        Measured {
+            median: t.median * 1e3,
+            min: t.min * 1e3,
+            max: t.max * 1e3,
+        }
+    }
+
+    /// Million items per second for `items` processed in each repeat of `t`.
+    pub fn per_second_millions(items: usize, t: &Measured) -> Measured {
+        let rate = |s: f64| items as f64 / s.max(1e-12) / 1e6;
+        Measured {
+            median: rate(t.median),
+            min: rate(t.max),
+            max: rate(t.min),
+        }
+    }
+
+    /// (max - min) / median.
+    pub fn spread(&self) -> f64 {
+        if self.median > 0.0 {
+            (self.max - self.min) / self.median
+        } else {
+            0.0
+        }
+    }
+
+    pub fn is_noisy(&self) -> bool {
+        self.spread() > NOISY_SPREAD
+    }
 }
 
 /// Runs `f` once to warm up, then `repeats` times; returns seconds.
-pub fn time_repeats<T>(repeats: usize, mut f: impl FnMut() -> T) -> Timing {
+pub fn time_repeats<T>(repeats: usize, mut f: impl FnMut() -> T) -> Measured {
     std::hint::black_box(f());
-    Timing::from_samples(
+    Measured::from_samples(
         (0..repeats.max(1))
             .map(|_| {
                 let start = Instant::now();
@@ -107,7 +143,7 @@ pub fn time_interleaved<T>(
     n: usize,
     repeats: usize,
     mut run: impl FnMut(usize) -> T,
-) -> Vec<Timing> {
+) -> Vec<Measured> {
     for i in 0..n {
         std::hint::black_box(run(i));
     }
@@ -120,7 +156,7 @@ pub fn time_interleaved<T>(
             seconds[i].push(start.elapsed().as_secs_f64());
         }
     }
-    seconds.into_iter().map(Timing::from_samples).collect()
+    seconds.into_iter().map(Measured::from_samples).collect()
 }
 
 /// Million rays per second of several backends on the same `rays`, their

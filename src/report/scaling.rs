@@ -7,13 +7,13 @@ use std::path::Path;
 use glam::Vec3;
 
 use super::budget::Budget;
-use super::measure::{mrays_interleaved, time_repeats, Query, Timing};
+use super::measure::{mrays_interleaved, time_repeats, Measured, Query};
 use super::plot::{loglog, loglog_slope, Series};
-use super::table::{Cell, Measured, Table};
+use super::table::{Cell, Table};
 use crate::accel::config::compared;
 use crate::accel::BackendConfig;
-use crate::geom::Ray;
 use crate::geom::sampling::Rng;
+use crate::geom::Ray;
 use crate::scene::generate::{plate, SceneBuilder};
 use crate::scene::{Material, NormalMode, Scene};
 
@@ -21,7 +21,7 @@ use crate::scene::{Material, NormalMode, Scene};
 /// backend.
 pub struct ScalingRow {
     pub triangles: usize,
-    pub build: Vec<Timing>,
+    pub build: Vec<Measured>,
     pub mrays: Vec<Measured>,
 }
 

@@ -10,9 +10,9 @@ use serde_json::{json, Value};
 use super::budget::Budget;
 use super::budget::ALL_BUILDS_UP_TO;
 use super::measure::{
-    mrays_interleaved, on_threads, ray_sets, time_interleaved, time_repeats, Timing,
+    mrays_interleaved, on_threads, ray_sets, time_interleaved, time_repeats, Measured,
 };
-use super::table::{Cell, Flag, Measured, Table};
+use super::table::{Cell, Flag, Table};
 use crate::accel::config::{build_variants, compared};
 use crate::accel::{Accel, AccelStats, BackendConfig};
 use crate::render::integrator::{PathSettings, Shading};
@@ -23,8 +23,8 @@ use crate::scene::Scene;
 /// the backend reports about its structure.
 pub struct BuildRow {
     pub config: BackendConfig,
-    pub one_thread: Timing,
-    pub all_threads: Timing,
+    pub one_thread: Measured,
+    pub all_threads: Measured,
     pub stats: AccelStats,
 }
 
@@ -84,7 +84,7 @@ pub struct SceneResult {
     pub batch: Vec<Measured>,
     /// Frame: width, height, spp; seconds per compared backend.
     pub frame: (u32, u32, u32),
-    pub frame_seconds: Vec<Timing>,
+    pub frame_seconds: Vec<Measured>,
 }
 
 impl SceneResult {
@@ -106,7 +106,7 @@ impl SceneResult {
 
     /// The two frame times `frame_ratio(j)` rests on.
     pub fn frame_pair(&self, j: usize) -> [Measured; 2] {
-        [0, j].map(|i| Measured::seconds(&self.frame_seconds[i]))
+        [0, j].map(|i| self.frame_seconds[i])
     }
 }
 
@@ -117,7 +117,7 @@ fn time_build(
     config: &BackendConfig,
     threads: usize,
     repeats: usize,
-) -> Result<Timing, String> {
+) -> Result<Measured, String> {
     let config = config.with_threads(threads);
     config.build(scene).map_err(|e| e.to_string())?;
     Ok(on_threads(threads, || {

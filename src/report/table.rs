@@ -4,11 +4,7 @@
 
 use serde_json::{Map, Value};
 
-use super::measure::Timing;
-
-/// Repeats whose spread (max - min over the median) exceeds this are
-/// marked noisy in the Markdown and flagged in the JSON.
-pub const NOISY_SPREAD: f64 = 0.10;
+use super::measure::Measured;
 
 /// One value of a row.
 #[derive(Clone, Debug)]
@@ -31,7 +27,7 @@ pub enum Cell {
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Flag {
     /// A figure derived from repeats that spread by more than
-    /// [`NOISY_SPREAD`] (a ratio of two measurements, say).
+    /// `measure::NOISY_SPREAD` (a ratio of two measurements, say).
     Noisy,
     /// A figure on all threads that is below the same figure on one
     /// thread: the extra threads cost time, or something else ran.
@@ -79,56 +75,6 @@ impl Cell {
             Cell::Flagged(inner, f) => *f == flag || inner.has(flag),
             _ => false,
         }
-    }
-}
-
-/// A figure measured several times: its median, smallest and largest value.
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
-pub struct Measured {
-    pub median: f64,
-    pub min: f64,
-    pub max: f64,
-}
-
-impl Measured {
-    /// Milliseconds of a timing given in seconds.
-    pub fn millis(t: &Timing) -> Measured {
-        Measured {
-            median: t.median * 1e3,
-            min: t.min * 1e3,
-            max: t.max * 1e3,
-        }
-    }
-
-    pub fn seconds(t: &Timing) -> Measured {
-        Measured {
-            median: t.median,
-            min: t.min,
-            max: t.max,
-        }
-    }
-
-    /// Million items per second for `items` processed in each repeat of `t`.
-    pub fn per_second_millions(items: usize, t: &Timing) -> Measured {
-        let rate = |s: f64| items as f64 / s.max(1e-12) / 1e6;
-        Measured {
-            median: rate(t.median),
-            min: rate(t.max),
-            max: rate(t.min),
-        }
-    }
-
-    /// (max - min) / median.
-    pub fn spread(&self) -> f64 {
-        if self.median > 0.0 {
-            (self.max - self.min) / self.median
-        } else {
-            0.0
-        }
-    }
-
-    pub fn is_noisy(&self) -> bool {
-        self.spread() > NOISY_SPREAD
     }
 }
 

@@ -7,10 +7,10 @@ use hybrid::accel::native::node::{is_leaf, leaf_count};
 use hybrid::accel::native::triangle::TriangleMode;
 use hybrid::accel::native::{NativeBvh, NativeOptions};
 use hybrid::accel::{Accel, TraceCounters};
+use hybrid::geom::Bounds;
 use hybrid::geom::{Hit, Ray};
 use hybrid::parity::rays;
 use hybrid::scene::Scene;
-use hybrid::geom::Bounds;
 
 use crate::common::{self, scene_or_skip};
 

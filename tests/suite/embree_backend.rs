@@ -6,8 +6,8 @@ use hybrid::accel::embree::{invalid_buffer_error, BuildQuality, EmbreeOptions, E
 use hybrid::accel::native::{NativeBvh, NativeOptions};
 use hybrid::accel::BackendConfig;
 use hybrid::accel::{Accel, AccelError, TraceCounters};
-use hybrid::geom::Ray;
 use hybrid::choice::Choice;
+use hybrid::geom::Ray;
 use hybrid::parity::rays;
 use hybrid::render::integrator::{PathSettings, Shading};
 use hybrid::render::{render, RenderSettings, Silent};
@@ -117,7 +117,8 @@ fn embree_agrees_with_native_on_random_rays_in_every_shared_scene() {
             for r in &rays {
                 if let (Some(x), Some(y)) = (a(r), b(r)) {
                     if x.prim == y.prim {
-                        let (nx, ny) = (scene.geometric_normal(r, &x), scene.geometric_normal(r, &y));
+                        let (nx, ny) =
+                            (scene.geometric_normal(r, &x), scene.geometric_normal(r, &y));
                         worst = worst.max(nx.angle_between(ny).to_degrees());
                     }
                 }

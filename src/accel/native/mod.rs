@@ -35,8 +35,8 @@ use self::tree::{Tree, MAX_DEPTH};
 use self::triangle::{TriangleBlock4, TriangleMode, TriangleTest, Watertight};
 use super::{Accel, AccelError, AccelStats, TraceCounters};
 use crate::choice::Choice;
-use crate::scene::Scene;
 use crate::geom::{Bounds, Hit, Ray};
+use crate::scene::Scene;
 
 /// Build and traversal options of the native backend.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

@@ -6,8 +6,8 @@ use glam::Vec3;
 
 use super::{Case, Expect};
 use crate::accel::{Accel, BackendConfig, TraceCounters};
-use crate::geom::Ray;
 use crate::geom::sampling::{cosine_hemisphere, uniform_sphere, Frame, Rng};
+use crate::geom::Ray;
 use crate::scene::generate::{cube, icosphere, plate, SceneBuilder};
 use crate::scene::{Material, NormalMode, Scene};
 

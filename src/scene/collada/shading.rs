@@ -5,8 +5,8 @@ use glam::{Mat4, Vec3};
 use roxmltree::Node;
 
 use super::{cgl_technique, child, elements, Loader, Result};
-use crate::scene::{AreaLight, CameraSpec, Light, Material};
 use crate::geom::unit;
+use crate::scene::{AreaLight, CameraSpec, Light, Material};
 
 impl<'a, 'input> Loader<'a, 'input> {
     /// Index of the material that `material` (a `<material>` element) names,
