@@ -67,7 +67,7 @@ fn main() {
                 scene.triangle_count(),
                 builds[0].median * 1e3,
                 others.join(", "),
-                backends[0].stats().sah_cost
+                backends[0].stats().tree.map_or(0.0, |t| t.sah_cost)
             );
             let finder = BackendConfig::NATIVE.build(&scene).expect("builds");
             for set in ray_sets(&scene, &finder, rays) {

@@ -93,8 +93,12 @@ impl Accel for BruteForce {
             primitives: self.triangles.len() + self.spheres.len(),
             build_ms: self.build_ms,
             memory_bytes: self.triangles.len() * 36 + self.spheres.len() * 16,
-            details: "brute force, Möller–Trumbore".into(),
-            ..AccelStats::default()
+            tree: None,
+            counts_tests: true,
+            details: format!(
+                "no acceleration structure: every ray tests all {} primitives, Möller–Trumbore",
+                self.triangles.len() + self.spheres.len()
+            ),
         }
     }
 }

@@ -23,7 +23,8 @@ pub use self::config::{Backend, BackendConfig};
 use crate::geom::{Hit, Ray};
 
 /// Per-thread counters of the work a backend did; summed at the end of a
-/// render. Backends that cannot count tests (Embree) count rays only.
+/// render. Backends that cannot count tests (Embree) count rays only
+/// ([`AccelStats::counts_tests`]).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct TraceCounters {
     pub rays: u64,
@@ -41,21 +42,57 @@ impl std::ops::AddAssign for TraceCounters {
     }
 }
 
-/// What a backend reports about its acceleration structure.
+/// The shape of a tree that a backend built and can see into (the native
+/// BVH; Embree's trees are its own).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct TreeFacts {
+    pub nodes: usize,
+    pub leaves: usize,
+    /// Levels of wide nodes.
+    pub depth: usize,
+    /// SAH cost of the binary tree (see the native builder).
+    pub sah_cost: f64,
+}
+
+/// What a backend reports about its acceleration structure, and the one
+/// line that describes it ([`AccelStats::describe`]): nothing above the
+/// trait needs to know which backend it was.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct AccelStats {
+    /// The backend's name (`native`, `embree3`, `embree4`, `none`).
     pub backend: String,
     pub primitives: usize,
     pub build_ms: f64,
     /// Bytes of the acceleration structure and the primitive data it keeps.
     pub memory_bytes: usize,
-    /// Native BVH only (zero elsewhere).
-    pub nodes: usize,
-    pub leaves: usize,
-    pub depth: usize,
-    pub sah_cost: f64,
-    /// Free-form details (Embree version and ISA, build quality).
+    /// The tree's shape, where the backend can see it.
+    pub tree: Option<TreeFacts>,
+    /// Whether its [`TraceCounters`] count box and primitive tests (not
+    /// only rays).
+    pub counts_tests: bool,
+    /// What was built, in words (Embree's version and ISA, build quality;
+    /// the native triangle test and leaf size).
     pub details: String,
+}
+
+impl AccelStats {
+    /// The build as one line: backend, time, shape where known, memory and
+    /// details.
+    pub fn describe(&self) -> String {
+        let shape = self.tree.map_or(String::new(), |t| {
+            format!(
+                "{} nodes, {} leaves, depth {}, SAH cost {:.2}, ",
+                t.nodes, t.leaves, t.depth, t.sah_cost
+            )
+        });
+        format!(
+            "{} built in {:.1} ms: {shape}{:.1} MiB ({})",
+            self.backend,
+            self.build_ms,
+            self.memory_bytes as f64 / (1 << 20) as f64,
+            self.details
+        )
+    }
 }
 
 /// The three queries an integrator may ask (pbrt-v4's aggregate interface).

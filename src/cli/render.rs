@@ -610,7 +610,6 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
         );
     }
     let result = render_with(args, &settings)?;
-    let backend = args.backend();
     let image = result
         .film
         .file(&output, args.tone_map())
@@ -638,7 +637,7 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
         c.rays,
         result.mrays_per_second()
     );
-    if !matches!(backend, BackendConfig::Embree(_)) && c.rays > 0 {
+    if result.counts_tests && c.rays > 0 {
         line += &format!(
             ", {:.1} box tests and {:.1} primitive tests per ray",
             c.box_tests as f64 / c.rays as f64,
@@ -704,29 +703,16 @@ pub fn render_with(args: &RenderArgs, settings: &RenderSettings) -> Result<Rende
     let backend = args.backend();
     let accel = backend.build(&scene).map_err(|e| e.to_string())?;
     let stats = accel.stats();
-    match backend {
-        BackendConfig::Native(_) => say!(
-            "native BVH built in {:.1} ms: {} nodes, {} leaves, depth {}, SAH cost {:.2}, {:.1} MiB ({})",
-            stats.build_ms,
-            stats.nodes,
-            stats.leaves,
-            stats.depth,
-            stats.sah_cost,
-            stats.memory_bytes as f64 / (1 << 20) as f64,
-            stats.details
-        ),
-        BackendConfig::Embree(_) => say!(
-            "{} scene built in {:.1} ms: {}, {:.1} MiB",
-            backend.kind(),
-            stats.build_ms,
-            stats.details,
-            stats.memory_bytes as f64 / (1 << 20) as f64
-        ),
-        BackendConfig::Brute if !backend.suits(&scene) => say!(
-            "no acceleration structure: brute force over {} primitives will be slow (every ray tests every primitive)",
-            stats.primitives
-        ),
-        BackendConfig::Brute => say!("no acceleration structure (brute force over {} primitives)", stats.primitives),
+    say!("{}", stats.describe());
+    if !backend.suits(&scene) {
+        super::report_line(
+            "warning",
+            &format!(
+                "{}: {} primitives without an acceleration structure will be slow",
+                backend.kind(),
+                stats.primitives
+            ),
+        );
     }
 
     let bar = Bar::new(settings);

@@ -14,7 +14,7 @@ use super::measure::{
 };
 use super::table::{Cell, Flag, Table};
 use crate::accel::config::{build_variants, compared};
-use crate::accel::{Accel, AccelStats, BackendConfig};
+use crate::accel::{Accel, AccelStats, BackendConfig, TreeFacts};
 use crate::render::integrator::{PathSettings, Shading};
 use crate::render::{render, RenderSettings, Silent};
 use crate::scene::Scene;
@@ -229,8 +229,7 @@ fn builds_table(r: &SceneResult) -> Table {
         ("sah_cost", "SAH cost".to_string()),
     ]);
     for b in &r.builds {
-        let native = matches!(b.config, BackendConfig::Native(_));
-        let or_empty = |c: Cell| if native { c } else { Cell::Empty };
+        let tree = |f: fn(&TreeFacts) -> Cell| b.stats.tree.as_ref().map_or(Cell::Empty, f);
         table.row(vec![
             Cell::Text(b.config.label()),
             Cell::Measured(Measured::millis(&b.one_thread), 2),
@@ -238,9 +237,9 @@ fn builds_table(r: &SceneResult) -> Table {
                 (b.all_threads.median > b.one_thread.median).then_some(Flag::BelowOneThread),
             ),
             Cell::Number(b.stats.memory_bytes as f64 / (1 << 20) as f64, 2),
-            or_empty(Cell::Count(b.stats.nodes as u64)),
-            or_empty(Cell::Count(b.stats.depth as u64)),
-            or_empty(Cell::Number(b.stats.sah_cost, 2)),
+            tree(|t| Cell::Count(t.nodes as u64)),
+            tree(|t| Cell::Count(t.depth as u64)),
+            tree(|t| Cell::Number(t.sah_cost, 2)),
         ]);
     }
     table

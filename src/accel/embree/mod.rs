@@ -297,8 +297,9 @@ impl<V: Version> Accel for EmbreeAccel<'_, V> {
             primitives: self.primitives,
             build_ms: self.build_ms,
             memory_bytes: self.device.memory_bytes(),
+            tree: None,
+            counts_tests: false,
             details: self.description(),
-            ..AccelStats::default()
         }
     }
 }

@@ -33,7 +33,7 @@ use self::node::{Node8, MAX_LEAF_FIRST};
 use self::traverse::{BoxRay, BoxTest, Leaves, Work};
 use self::tree::{Tree, MAX_DEPTH};
 use self::triangle::{TriangleBlock4, TriangleMode, TriangleTest, Watertight};
-use super::{Accel, AccelError, AccelStats, TraceCounters};
+use super::{Accel, AccelError, AccelStats, TraceCounters, TreeFacts};
 use crate::choice::Choice;
 use crate::geom::{Bounds, Hit, Ray};
 use crate::scene::Scene;
@@ -608,10 +608,13 @@ impl Accel for NativeBvh {
                 + std::mem::size_of_val(self.spheres.nodes())
                 + store
                 + std::mem::size_of_val(self.sphere_items.as_slice()),
-            nodes: self.shape.nodes,
-            leaves: self.shape.leaves,
-            depth: self.shape.depth,
-            sah_cost: self.shape.sah_cost,
+            tree: Some(TreeFacts {
+                nodes: self.shape.nodes,
+                leaves: self.shape.leaves,
+                depth: self.shape.depth,
+                sah_cost: self.shape.sah_cost,
+            }),
+            counts_tests: true,
             details: format!(
                 "{} triangles, {} build, max leaf {}, 8-wide {} traversal",
                 self.options.triangle.name(),
