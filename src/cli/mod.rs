@@ -18,6 +18,7 @@ mod parity;
 mod render;
 mod report;
 mod series;
+mod settings;
 
 use std::path::{Path, PathBuf};
 
@@ -95,7 +96,7 @@ pub fn check_command_line(args: &[String]) -> Result<(), String> {
         Cli::try_parse_from(std::iter::once("hybrid".to_string()).chain(args.iter().cloned()))
             .map_err(|e| one_line(&e.render().to_string()))?;
     match cli.command {
-        Command::Render(args) => args.settings().map(|_| ()),
+        Command::Render(args) => args.settings().map(|_| ()).map_err(String::from),
         _ => Ok(()),
     }
 }

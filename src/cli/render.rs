@@ -13,11 +13,10 @@ use crate::accel::native::triangle::TriangleMode;
 use crate::accel::native::NativeOptions;
 use crate::accel::{Accel, BackendConfig};
 use crate::choice::Choice;
-use crate::render::camera::{CameraMode, ThinLens};
-use crate::render::camera_file::CourseCamera;
+use crate::render::camera::CameraMode;
 use crate::render::film::{check_writable, rate_path, write_files, ToneMap};
-use crate::render::integrator::{Background, BounceView, DirectEstimator, PathSettings, Shading};
-use crate::render::{render, Adaptive, Cell, Progress, RenderOutput, RenderSettings};
+use crate::render::integrator::{Background, BounceView, DirectEstimator};
+use crate::render::{render, Progress, RenderOutput, RenderSettings};
 use crate::scene::environment::{EnvSampling, Environment};
 use crate::scene::NormalMode;
 
@@ -31,17 +30,6 @@ pub enum AccelArg {
     Embree4,
     None,
 }
-
-/// A camera file is 30 numbers on six lines; anything much longer is not
-/// one, and is refused before it is read.
-pub const MAX_CAMERA_FILE_BYTES: u64 = 64 * 1024;
-
-/// More worker threads than this only cost memory and start-up time.
-pub const MAX_THREADS: usize = 256;
-
-pub use crate::render::film::MAX_PIXELS;
-/// Mean (12 bytes), sample count (4) and double-precision sum (24).
-const FILM_BYTES_PER_PIXEL: u64 = 40;
 
 #[derive(Args, Debug, Clone)]
 pub struct RenderArgs {
@@ -230,198 +218,6 @@ impl RenderArgs {
         options.join(" ")
     }
 
-    /// Checks the options and turns them into render settings.
-    pub fn settings(&self) -> Result<RenderSettings, String> {
-        self.backend()
-            .available()
-            .map_err(|why| format!("--accel {}: {why}", self.backend().kind()))?;
-        let (width, height) = (self.resolution[0], self.resolution[1]);
-        if width == 0 || height == 0 {
-            return Err(format!(
-                "-r {width} {height}: the resolution must be at least 1 x 1"
-            ));
-        }
-        if width > 1 << 15 || height > 1 << 15 {
-            return Err(format!(
-                "-r {width} {height}: the resolution is larger than 32768"
-            ));
-        }
-        if self.threads > MAX_THREADS {
-            return Err(format!(
-                "-t {}: at most {MAX_THREADS} threads (0 means one per core)",
-                self.threads
-            ));
-        }
-        let samples = self.samples();
-        if samples == 0 {
-            return Err("-s 0: at least one sample per pixel is needed".into());
-        }
-        if self.light_samples == 0 {
-            return Err("-l 0: at least one light sample is needed".into());
-        }
-        if let Some(deg) = self.crease {
-            if !(0.0..=180.0).contains(&deg) {
-                return Err(format!("--crease {deg}: the angle must be 0..=180 degrees"));
-            }
-        }
-        if self.leaf > 16 {
-            return Err(format!(
-                "--leaf {}: leaf size must be 1..=16 (or 0: by mesh size)",
-                self.leaf
-            ));
-        }
-        if let Some(p) = self.russian_roulette() {
-            if !(p > 0.0 && p <= 1.0) {
-                return Err(format!(
-                    "--rr {p}: the continuation probability must be in (0, 1]"
-                ));
-            }
-        }
-        let adaptive = match &self.adaptive {
-            Some(a) => {
-                let (batch, tolerance) = (a[0], a[1]);
-                if batch < 1.0
-                    || batch.fract() != 0.0
-                    || !(tolerance > 0.0)
-                    || !tolerance.is_finite()
-                {
-                    return Err(format!(
-                        "-a {batch} {tolerance}: BATCH must be a whole number >= 1 and TOL > 0"
-                    ));
-                }
-                Some(Adaptive {
-                    batch: batch as u32,
-                    tolerance: tolerance as f32,
-                })
-            }
-            None => None,
-        };
-        let cell = match (&self.cell, &self.part) {
-            (_, Some(text)) => match two_numbers(text, "/") {
-                Some((k, n)) if k < n && n <= height => {
-                    let band = |k: u32| (u64::from(height) * u64::from(k) / u64::from(n)) as u32;
-                    Some(Cell {
-                        x: 0,
-                        y: band(k),
-                        width,
-                        height: band(k + 1) - band(k),
-                    })
-                }
-                _ => {
-                    return Err(format!(
-                    "--part {text}: expected K/N with 0 <= K < N <= {height} (the image's rows)"
-                ))
-                }
-            },
-            (Some(c), None) => {
-                let cell = Cell {
-                    x: c[0],
-                    y: c[1],
-                    width: c[2],
-                    height: c[3],
-                };
-                if cell.width == 0
-                    || cell.height == 0
-                    || cell.x.checked_add(cell.width).is_none_or(|end| end > width)
-                    || cell
-                        .y
-                        .checked_add(cell.height)
-                        .is_none_or(|end| end > height)
-                {
-                    return Err(format!(
-                        "-p {} {} {} {}: the cell must be non-empty and inside the {width} x {height} image",
-                        c[0], c[1], c[2], c[3]
-                    ));
-                }
-                Some(cell)
-            }
-            (None, None) => None,
-        };
-        let lens = match (self.lens_radius, self.focal_distance) {
-            (Some(r), _) if !(r >= 0.0 && r.is_finite()) => {
-                return Err(format!("-b {r}: the lens radius must be 0 or more"))
-            }
-            (_, Some(d)) if !(d > 0.0 && d.is_finite()) => {
-                return Err(format!("-d {d}: the focal distance must be more than 0"))
-            }
-            (Some(radius), d) => Some(ThinLens {
-                radius,
-                focal_distance: d.unwrap_or(0.0),
-            }),
-            (None, Some(_)) => None,
-            (None, None) => None,
-        };
-        let course_camera = match &self.camera_file {
-            Some(path) => {
-                let name = path.display().to_string();
-                let bytes = crate::input::read_regular(path, MAX_CAMERA_FILE_BYTES)
-                    .map_err(|e| format!("{name}: cannot read the camera file: {e}"))?;
-                let text = String::from_utf8(bytes)
-                    .map_err(|_| format!("{name}: the camera file is not UTF-8 text"))?;
-                Some(CourseCamera::parse(&text, &name)?)
-            }
-            None => None,
-        };
-        let sample_range = match &self.sample_range {
-            Some(text) => {
-                let range = two_numbers(text, "..");
-                match range {
-                    Some((a, b)) if a < b && b <= samples => {}
-                    _ => {
-                        return Err(format!(
-                            "--samples {text}: expected A..B with A < B <= {samples} (the -s count)"
-                        ))
-                    }
-                }
-                if self.adaptive.is_some() {
-                    return Err(format!(
-                        "--samples {text}: adaptive sampling (-a) decides per pixel how many samples to take and cannot be split by samples; split it with -p"
-                    ));
-                }
-                range
-            }
-            None => None,
-        };
-        let (w, h) = cell.map_or((width, height), |c| (c.width, c.height));
-        if u64::from(w) * u64::from(h) > MAX_PIXELS {
-            return Err(format!(
-                "{w} x {h} pixels to render: at most {MAX_PIXELS} ({} MiB of film) per run; split the frame with -p",
-                MAX_PIXELS * FILM_BYTES_PER_PIXEL >> 20
-            ));
-        }
-        let shading = if self.normals {
-            Shading::Normals
-        } else {
-            Shading::Path(PathSettings {
-                estimator: if self.hemisphere {
-                    DirectEstimator::Hemisphere
-                } else {
-                    self.estimator
-                },
-                light_samples: self.light_samples,
-                max_bounces: self.max_bounces(),
-                accumulate: self.accumulate == 1,
-                view: self.only,
-                russian_roulette: self.russian_roulette(),
-                background: self.background,
-            })
-        };
-        Ok(RenderSettings {
-            width,
-            height,
-            samples,
-            threads: self.threads,
-            seed: self.seed,
-            camera: self.camera,
-            shading,
-            adaptive,
-            cell,
-            sample_range,
-            lens,
-            course_camera,
-        })
-    }
-
     /// The backend `--accel` chose, with its own flags.
     pub fn backend(&self) -> BackendConfig {
         match self.accel {
@@ -447,45 +243,6 @@ impl RenderArgs {
         }
     }
 
-    /// Options this run ignores, one line each (printed once per command,
-    /// as `hybrid: warning:` lines).
-    pub fn warnings(&self) -> Vec<String> {
-        let mut out = Vec::new();
-        if let (None, Some(d)) = (self.lens_radius, self.focal_distance) {
-            out.push(format!("-d {d} is ignored without a lens radius (-b)"));
-        }
-        if self.normals {
-            let mut ignored = Vec::new();
-            if self.hemisphere || self.estimator != DirectEstimator::default() {
-                ignored.push("-H/--estimator");
-            }
-            if self.light_samples != 1 {
-                ignored.push("-l");
-            }
-            if self.max_bounces.is_some_and(|m| m != 1) {
-                ignored.push("-m");
-            }
-            if self.environment.is_some() {
-                ignored.push("-e");
-            }
-            for flag in ignored {
-                out.push(format!(
-                    "{flag} is ignored with --normals (normal shading traces camera rays only)"
-                ));
-            }
-        }
-        if let Some(a) = &self.adaptive {
-            let samples = self.samples();
-            if a[0] > samples as f64 {
-                out.push(format!(
-                    "-a {} {}: the batch is larger than -s {samples}, so every pixel takes the -s samples and none stops early",
-                    a[0], a[1]
-                ));
-            }
-        }
-        out
-    }
-
     /// PNG tone map: the reference renders' for radiance, none for normals.
     pub fn tone_map(&self) -> ToneMap {
         if self.normals {
@@ -508,12 +265,6 @@ impl RenderArgs {
             .unwrap_or("cornell");
         PathBuf::from(format!("{stem}.png"))
     }
-}
-
-/// `A<sep>B` as two whole numbers (`--part K/N`, `--samples A..B`).
-fn two_numbers(text: &str, sep: &str) -> Option<(u32, u32)> {
-    let (a, b) = text.split_once(sep)?;
-    Some((a.trim().parse().ok()?, b.trim().parse().ok()?))
 }
 
 /// A progress bar on stderr counting camera samples (hidden when stderr
@@ -671,13 +422,8 @@ pub fn render_with(args: &RenderArgs, settings: &RenderSettings) -> Result<Rende
 
     let start = Instant::now();
     let mut scene = args.input.load(normal_mode)?;
-    match args.crease {
-        Some(_) if args.flat => super::report_line(
-            "warning",
-            "--crease is ignored with --flat (every face keeps its own normal)",
-        ),
-        Some(degrees) => scene.mesh.crease(degrees),
-        None => {}
+    if let Some(degrees) = args.crease.filter(|_| !args.flat) {
+        scene.mesh.crease(degrees);
     }
     if let Some(path) = &args.environment {
         let mut env = Environment::load(path).map_err(|e| e.to_string())?;

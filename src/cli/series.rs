@@ -12,28 +12,38 @@ use crate::render::film::{check_writable, write_files, ImageFile};
 use crate::report::gallery::image;
 use crate::report::sheet::sheet;
 
+/// Render options that take one value but that a series does not vary:
+/// where files go (`-f` names the sheet, `--save-camera` writes a camera
+/// file), which part of a frame a run renders (`--part`, `--samples`; a
+/// series renders whole images), and a safety limit (`--max-scene-mb`).
+const NOT_VARIED: [&str; 5] = ["f", "save-camera", "part", "samples", "max-scene-mb"];
+
 /// Options a series can vary, as written after `--vary` (one letter: the
-/// short flag; otherwise the long one).
-pub const VARIABLE: [&str; 18] = [
-    "scene",
-    "s",
-    "l",
-    "m",
-    "o",
-    "b",
-    "d",
-    "t",
-    "rr",
-    "seed",
-    "estimator",
-    "accel",
-    "only",
-    "triangle",
-    "build",
-    "leaf",
-    "quality",
-    "camera",
-];
+/// short flag; otherwise the long one): `scene`, and every render option
+/// that takes one value, read from the render command's own definitions,
+/// but [`NOT_VARIED`].
+pub fn variable_options() -> Vec<String> {
+    let mut command = <RenderArgs as clap::Args>::augment_args(clap::Command::new("render"));
+    command.build();
+    let mut names = vec!["scene".to_string()];
+    for arg in command.get_arguments() {
+        let one_value = arg
+            .get_num_args()
+            .is_some_and(|n| n.min_values() == 1 && n.max_values() == 1);
+        if arg.is_positional() || !one_value || !arg.get_action().takes_values() {
+            continue;
+        }
+        let name = match (arg.get_short(), arg.get_long()) {
+            (Some(c), _) => c.to_string(),
+            (None, Some(long)) => long.to_string(),
+            (None, None) => continue,
+        };
+        if !NOT_VARIED.contains(&name.as_str()) {
+            names.push(name);
+        }
+    }
+    names
+}
 
 #[derive(Args, Debug, Clone)]
 pub struct SeriesArgs {
@@ -73,10 +83,11 @@ pub fn parse_vary(text: &str) -> Result<(String, Vec<String>), String> {
         .split_once('=')
         .ok_or_else(|| bad("expected OPTION=VALUES, e.g. l=1,4,16,64"))?;
     let name = name.trim().trim_start_matches('-').to_string();
-    if !VARIABLE.contains(&name.as_str()) {
+    let variable = variable_options();
+    if !variable.contains(&name) {
         return Err(bad(&format!(
             "'{name}' is not an option a series varies (one of {})",
-            VARIABLE.join(", ")
+            variable.join(", ")
         )));
     }
     let values = values.trim();
@@ -398,5 +409,35 @@ mod tests {
             fixed_options(&raw, Some(Path::new("scene.dae"))),
             "-s 64 -l 4"
         );
+    }
+
+    #[test]
+    fn the_variable_options_are_the_render_options_of_one_value() {
+        let names = variable_options();
+        for wanted in [
+            "scene",
+            "s",
+            "l",
+            "m",
+            "rr",
+            "estimator",
+            "accel",
+            "crease",
+            "e",
+        ] {
+            assert!(
+                names.iter().any(|n| n == wanted),
+                "{wanted} missing from {names:?}"
+            );
+        }
+        // Output names, partial renders, switches and two-value options.
+        for refused in [
+            "f", "samples", "part", "flat", "normals", "r", "a", "p", "help",
+        ] {
+            assert!(
+                !names.iter().any(|n| n == refused),
+                "{refused} in {names:?}"
+            );
+        }
     }
 }
