@@ -14,6 +14,7 @@
 
 pub mod build;
 pub mod cpu;
+mod leaves;
 mod memory;
 pub mod node;
 mod pack;
@@ -29,6 +30,7 @@ use rayon::prelude::*;
 
 use self::build::{BuildMethod, BuiltTree, TreeShape};
 use self::cpu::Avx2;
+use self::leaves::{BlockLeaves, SphereLeaves, WatertightLeaves};
 use self::node::{Node8, MAX_LEAF_FIRST};
 use self::traverse::{BoxRay, BoxTest, Leaves, Work};
 use self::tree::{Tree, MAX_DEPTH};
@@ -452,124 +454,6 @@ impl NativeBvh {
             best: None,
         };
         self.walk_any(&self.spheres, box_ray, ray.t_max, &mut leaves, work)
-    }
-}
-
-/// Möller–Trumbore blocks: remembers (block, lane, u, v) of the nearest hit.
-struct BlockLeaves<'a> {
-    blocks: &'a [TriangleBlock4],
-    ray: &'a Ray,
-    best: Option<(u32, usize, f32, f32)>,
-}
-
-impl Leaves for BlockLeaves<'_> {
-    #[inline(always)]
-    fn nearest(&mut self, first: u32, count: u32, mut t_max: f32) -> Option<f32> {
-        let mut found = None;
-        for b in first..first + count {
-            if let Some((lane, t, u, v)) =
-                self.blocks[b as usize].nearest(self.ray, self.ray.t_min, t_max)
-            {
-                t_max = t;
-                found = Some(t);
-                self.best = Some((b, lane, u, v));
-            }
-        }
-        found
-    }
-
-    #[inline(always)]
-    fn address(&self, first: u32) -> *const u8 {
-        self.blocks.as_ptr().wrapping_add(first as usize).cast()
-    }
-
-    #[inline(always)]
-    fn any(&mut self, first: u32, count: u32, t_max: f32) -> bool {
-        (first..first + count).any(|b| {
-            self.blocks[b as usize]
-                .nearest(self.ray, self.ray.t_min, t_max)
-                .is_some()
-        })
-    }
-}
-
-/// Watertight triangles: remembers (slot, u, v) of the nearest hit.
-struct WatertightLeaves<'a> {
-    corners: &'a [([Vec3; 3], u32)],
-    setup: <Watertight as TriangleTest>::Setup,
-    t_min: f32,
-    best: Option<(u32, f32, f32)>,
-}
-
-impl Leaves for WatertightLeaves<'_> {
-    #[inline(always)]
-    fn nearest(&mut self, first: u32, count: u32, mut t_max: f32) -> Option<f32> {
-        let mut found = None;
-        for slot in first..first + count {
-            let tri = &self.corners[slot as usize].0;
-            if let Some((t, u, v)) = Watertight::intersect(tri, &self.setup, self.t_min, t_max) {
-                t_max = t;
-                found = Some(t);
-                self.best = Some((slot, u, v));
-            }
-        }
-        found
-    }
-
-    #[inline(always)]
-    fn address(&self, first: u32) -> *const u8 {
-        self.corners.as_ptr().wrapping_add(first as usize).cast()
-    }
-
-    #[inline(always)]
-    fn any(&mut self, first: u32, count: u32, t_max: f32) -> bool {
-        (first..first + count).any(|slot| {
-            Watertight::intersect(
-                &self.corners[slot as usize].0,
-                &self.setup,
-                self.t_min,
-                t_max,
-            )
-            .is_some()
-        })
-    }
-}
-
-/// Spheres: remembers the item of the nearest hit.
-struct SphereLeaves<'a> {
-    items: &'a [SphereItem],
-    ray: &'a Ray,
-    best: Option<u32>,
-}
-
-impl Leaves for SphereLeaves<'_> {
-    #[inline(always)]
-    fn nearest(&mut self, first: u32, count: u32, mut t_max: f32) -> Option<f32> {
-        let mut found = None;
-        for i in first..first + count {
-            let s = &self.items[i as usize];
-            if let Some(t) =
-                sphere::intersect_sphere(s.center, s.radius, self.ray, self.ray.t_min, t_max)
-            {
-                t_max = t;
-                found = Some(t);
-                self.best = Some(i);
-            }
-        }
-        found
-    }
-
-    #[inline(always)]
-    fn address(&self, first: u32) -> *const u8 {
-        self.items.as_ptr().wrapping_add(first as usize).cast()
-    }
-
-    #[inline(always)]
-    fn any(&mut self, first: u32, count: u32, t_max: f32) -> bool {
-        (first..first + count).any(|i| {
-            let s = &self.items[i as usize];
-            sphere::intersect_sphere(s.center, s.radius, self.ray, self.ray.t_min, t_max).is_some()
-        })
     }
 }
 

@@ -1,0 +1,263 @@
+//! The AVX2 kernels: the 8-wide slab test, compress-shuffle pushes and
+//! prefetches, reached only with an [`Avx2`] token and a [`Tree`].
+
+use std::arch::x86_64::*;
+
+use super::*;
+
+/// The per-ray constants of the 8-wide slab test. Robust form: near
+/// and far planes `(plane - a) * near_r`, `(plane - a) * far_r` with
+/// `a` the origin; fast form: `plane * near_r - near_c` and
+/// `plane * far_r - far_c`.
+struct Lanes {
+    near_r: [__m256; 3],
+    near_c: [__m256; 3],
+    far_r: [__m256; 3],
+    far_c: [__m256; 3],
+    t_min: __m256,
+    rows: [(usize, usize); 3],
+    octant: u32,
+    /// Shift that selects the octant's 3-bit field of `Node8::order`.
+    shift: __m128i,
+}
+
+#[target_feature(enable = "avx2,fma,popcnt,lzcnt,bmi1,bmi2")]
+#[inline]
+fn lanes<const ROBUST: bool>(ray: &BoxRay) -> Lanes {
+    let splat = |v: Vec3A| v.to_array().map(|x| _mm256_set1_ps(x));
+    let (near_c, far_r, far_c) = if ROBUST {
+        (ray.origin, ray.inv_dir, ray.origin)
+    } else {
+        (ray.fast[0], ray.fast[1], ray.fast[2])
+    };
+    Lanes {
+        near_r: splat(ray.inv_dir),
+        near_c: splat(near_c),
+        far_r: splat(far_r),
+        far_c: splat(far_c),
+        t_min: _mm256_set1_ps(ray.t_min),
+        rows: [ray.rows(0), ray.rows(1), ray.rows(2)],
+        octant: ray.octant(),
+        shift: _mm_cvtsi32_si128(3 * ray.octant() as i32),
+    }
+}
+
+/// The 8-wide slab test: entry distances and the hit lanes.
+#[target_feature(enable = "avx2,fma,popcnt,lzcnt,bmi1,bmi2")]
+#[inline]
+unsafe fn slab<const ROBUST: bool>(node: &Node8, l: &Lanes, t_max: __m256) -> (__m256, __m256) {
+    let plane = |row: usize| _mm256_load_ps(node.planes[row].as_ptr());
+    let near_t = |axis: usize| {
+        let p = plane(l.rows[axis].0);
+        if ROBUST {
+            _mm256_mul_ps(_mm256_sub_ps(p, l.near_c[axis]), l.near_r[axis])
+        } else {
+            _mm256_fmsub_ps(p, l.near_r[axis], l.near_c[axis])
+        }
+    };
+    let far_t = |axis: usize| {
+        let p = plane(l.rows[axis].1);
+        if ROBUST {
+            _mm256_mul_ps(_mm256_sub_ps(p, l.far_c[axis]), l.far_r[axis])
+        } else {
+            _mm256_fmsub_ps(p, l.far_r[axis], l.far_c[axis])
+        }
+    };
+    let near = _mm256_max_ps(
+        _mm256_max_ps(near_t(0), near_t(1)),
+        _mm256_max_ps(near_t(2), l.t_min),
+    );
+    let far = _mm256_min_ps(_mm256_min_ps(far_t(0), far_t(1)), far_t(2));
+    let far = if ROBUST {
+        _mm256_mul_ps(far, _mm256_set1_ps(BOX_FAR_SCALE))
+    } else {
+        far
+    };
+    let far = _mm256_min_ps(far, t_max);
+    (near, _mm256_cmp_ps::<_CMP_LE_OQ>(near, far))
+}
+
+/// Asks for the four cache lines of `r`'s node or first leaf item
+/// (prefetches never fault, whatever the address).
+#[target_feature(enable = "avx2,fma,popcnt,lzcnt,bmi1,bmi2")]
+#[inline]
+fn prefetch<L: Leaves>(tree: &Tree, leaves: &L, r: ChildRef) {
+    let p = if is_leaf(r) {
+        leaves.address(leaf_first(r))
+    } else {
+        tree.nodes().as_ptr().wrapping_add(r as usize).cast::<u8>()
+    };
+    for line in 0..4 {
+        _mm_prefetch::<_MM_HINT_T0>(p.wrapping_add(64 * line).cast());
+    }
+}
+
+/// Closest-hit's push: hit children in the octant's order; the nearest
+/// is returned, the others and their entry distances written to the
+/// stack at `*top`, which advances past them.
+#[target_feature(enable = "avx2,fma,popcnt,lzcnt,bmi1,bmi2")]
+#[inline]
+unsafe fn push(
+    node: &Node8,
+    l: &Lanes,
+    near: __m256,
+    hit: __m256,
+    refs: *mut ChildRef,
+    dists: *mut f32,
+    top: &mut usize,
+) -> ChildRef {
+    let order = _mm256_srl_epi32(_mm256_load_si256(node.order.as_ptr().cast()), l.shift);
+    let sorted = _mm256_movemask_ps(_mm256_permutevar8x32_ps(hit, order)) as usize;
+    let children =
+        _mm256_permutevar8x32_epi32(_mm256_load_si256(node.child.as_ptr().cast()), order);
+    let nearest = 31 - (sorted as u32).leading_zeros();
+    let pack = _mm256_loadu_si256(COMPRESS[sorted].as_ptr().cast());
+    _mm256_storeu_si256(
+        refs.add(*top).cast(),
+        _mm256_permutevar8x32_epi32(children, pack),
+    );
+    let d = _mm256_permutevar8x32_ps(near, order);
+    _mm256_storeu_ps(dists.add(*top), _mm256_permutevar8x32_ps(d, pack));
+    *top += sorted.count_ones() as usize - 1;
+    node.child[node.ordered(l.octant, nearest as usize)]
+}
+
+/// Any-hit's push: no order to compute, the hit children in slot
+/// order (decreasing size); returns the last, the smallest, and writes
+/// the others to the stack at `*top`.
+#[target_feature(enable = "avx2,fma,popcnt,lzcnt,bmi1,bmi2")]
+#[inline]
+unsafe fn push_any(node: &Node8, mask: u32, refs: *mut ChildRef, top: &mut usize) -> ChildRef {
+    let pack = _mm256_loadu_si256(COMPRESS[mask as usize].as_ptr().cast());
+    let children = _mm256_load_si256(node.child.as_ptr().cast());
+    _mm256_storeu_si256(
+        refs.add(*top).cast(),
+        _mm256_permutevar8x32_epi32(children, pack),
+    );
+    *top += mask.count_ones() as usize - 1;
+    node.child[31 - mask.leading_zeros() as usize]
+}
+
+/// # Safety
+/// Needs the token's CPU features (AVX2, FMA, bit counting) and a
+/// non-empty `tree`; its type proves the rest (references in range,
+/// depth at most [`MAX_DEPTH`], so the stack holds every push).
+#[target_feature(enable = "avx2,fma,popcnt,lzcnt,bmi1,bmi2")]
+pub unsafe fn closest<const ROBUST: bool, L: Leaves>(
+    _cpu: Avx2,
+    tree: &Tree,
+    ray: &BoxRay,
+    t_max: &mut f32,
+    leaves: &mut L,
+    work: &mut Work,
+) -> bool {
+    let l = lanes::<ROBUST>(ray);
+    let mut refs = [MaybeUninit::<ChildRef>::uninit(); STACK];
+    let mut dists = [MaybeUninit::<f32>::uninit(); STACK];
+    let (refs, dists) = (
+        refs.as_mut_ptr().cast::<ChildRef>(),
+        dists.as_mut_ptr().cast::<f32>(),
+    );
+    let mut top = 0usize;
+    let mut far = _mm256_set1_ps(*t_max);
+    let mut current: ChildRef = 0;
+    let mut hit = false;
+    loop {
+        if !is_leaf(current) {
+            // SAFETY: `current` is the root of a non-empty tree or an
+            // inner reference read from one of its nodes.
+            let node = tree.node_unchecked(current);
+            work.nodes += 1;
+            let (near, hits) = slab::<ROBUST>(node, &l, far);
+            let mask = _mm256_movemask_ps(hits) as u32;
+            if mask != 0 {
+                current = if mask & (mask - 1) == 0 {
+                    node.child[mask.trailing_zeros() as usize]
+                } else {
+                    // SAFETY: `top` stays below STACK - WIDTH: every
+                    // level leaves at most seven entries and the depth
+                    // is bounded by MAX_DEPTH.
+                    push(node, &l, near, hits, refs, dists, &mut top)
+                };
+                continue;
+            }
+        } else {
+            if top > 0 {
+                // The next entry is fetched while the leaf is tested.
+                // SAFETY: entries below `top` were written by `push`.
+                prefetch(tree, leaves, *refs.add(top - 1));
+            }
+            let count = leaf_count(current);
+            work.items += count as u64;
+            if let Some(t) = leaves.nearest(leaf_first(current), count, *t_max) {
+                *t_max = t;
+                far = _mm256_set1_ps(t);
+                hit = true;
+            }
+        }
+        loop {
+            if top == 0 {
+                return hit;
+            }
+            top -= 1;
+            // SAFETY: entries below `top` were written by `push`.
+            if *dists.add(top) <= *t_max {
+                current = *refs.add(top);
+                break;
+            }
+        }
+    }
+}
+
+/// # Safety
+/// As [`closest`].
+#[target_feature(enable = "avx2,fma,popcnt,lzcnt,bmi1,bmi2")]
+pub unsafe fn any<const ROBUST: bool, L: Leaves>(
+    _cpu: Avx2,
+    tree: &Tree,
+    ray: &BoxRay,
+    t_max: f32,
+    leaves: &mut L,
+    work: &mut Work,
+) -> bool {
+    let l = lanes::<ROBUST>(ray);
+    let mut refs = [MaybeUninit::<ChildRef>::uninit(); STACK];
+    let refs = refs.as_mut_ptr().cast::<ChildRef>();
+    let mut top = 0usize;
+    let far = _mm256_set1_ps(t_max);
+    let mut current: ChildRef = 0;
+    loop {
+        if !is_leaf(current) {
+            // SAFETY: as in `closest`.
+            let node = tree.node_unchecked(current);
+            work.nodes += 1;
+            let (_, hits) = slab::<ROBUST>(node, &l, far);
+            let mask = _mm256_movemask_ps(hits) as u32;
+            if mask != 0 {
+                current = if mask & (mask - 1) == 0 {
+                    node.child[mask.trailing_zeros() as usize]
+                } else {
+                    push_any(node, mask, refs, &mut top)
+                };
+                continue;
+            }
+        } else {
+            if top > 0 {
+                // The next entry is fetched while the leaf is tested.
+                // SAFETY: entries below `top` were written by `push`.
+                prefetch(tree, leaves, *refs.add(top - 1));
+            }
+            let count = leaf_count(current);
+            work.items += count as u64;
+            if leaves.any(leaf_first(current), count, t_max) {
+                return true;
+            }
+        }
+        if top == 0 {
+            return false;
+        }
+        top -= 1;
+        // SAFETY: entries below `top` were written by `push`.
+        current = *refs.add(top);
+    }
+}
