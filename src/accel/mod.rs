@@ -73,6 +73,8 @@ pub struct AccelStats {
     /// What was built, in words (Embree's version and ISA, build quality;
     /// the native triangle test and leaf size).
     pub details: String,
+    /// How [`Accel::closest_hits`] traces a batch, in words.
+    pub batch_call: &'static str,
 }
 
 impl AccelStats {

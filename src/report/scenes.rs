@@ -80,8 +80,9 @@ pub struct SceneResult {
     pub builds: Vec<BuildRow>,
     pub traces: Vec<TraceRow>,
     /// Per compared backend: its coherent batch call
-    /// ([`Accel::closest_hits`]) on the camera rays, one thread.
-    pub batch: Vec<Measured>,
+    /// ([`Accel::closest_hits`]) on the camera rays, one thread: how the
+    /// backend calls it, and the figure.
+    pub batch: Vec<(&'static str, Measured)>,
     /// Frame: width, height, spp; seconds per compared backend.
     pub frame: (u32, u32, u32),
     pub frame_seconds: Vec<Measured>,
@@ -180,7 +181,10 @@ pub fn measure(
         .iter()
         .map(|b| {
             let t = time_repeats(budget.repeats, || b.closest_hits(camera, &mut answers));
-            Measured::per_second_millions(camera.len(), &t)
+            (
+                b.stats().batch_call,
+                Measured::per_second_millions(camera.len(), &t),
+            )
         })
         .collect();
     let (w, h, spp) = budget.frame;
@@ -308,19 +312,13 @@ fn batch_table(r: &SceneResult) -> Table {
     ]);
     for (i, c) in r.compared.iter().enumerate() {
         let single = r.traces[0].one_thread[i];
-        let call = match c {
-            BackendConfig::Embree(o) if o.version == crate::accel::embree::EmbreeVersion::V3 => {
-                "rtcIntersect1M stream, coherent flag"
-            }
-            BackendConfig::Embree(_) => "rtcIntersect1 loop, coherent flag",
-            _ => "closest_hit loop",
-        };
+        let (call, batch) = &r.batch[i];
         table.row(vec![
             Cell::Text(c.label()),
-            Cell::Text(call.into()),
-            Cell::Measured(r.batch[i], 2),
+            Cell::Text(call.to_string()),
+            Cell::Measured(*batch, 2),
             Cell::Measured(single, 2),
-            Cell::ratio_of(r.batch[i].median / single.median, &[r.batch[i], single]),
+            Cell::ratio_of(batch.median / single.median, &[*batch, single]),
         ]);
     }
     table

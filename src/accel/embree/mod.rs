@@ -122,11 +122,14 @@ impl Default for EmbreeOptions {
 /// One Embree version's table, as the backend is generic over it.
 pub trait Version: Api + Sized {
     const VERSION: EmbreeVersion;
+    /// How this version traces a batch ([`Accel::closest_hits`]).
+    const BATCH_CALL: &'static str;
     fn api() -> Result<&'static Self, String>;
 }
 
 impl Version for Embree3 {
     const VERSION: EmbreeVersion = EmbreeVersion::V3;
+    const BATCH_CALL: &'static str = "rtcIntersect1M stream, coherent flag";
     fn api() -> Result<&'static Self, String> {
         sys3::api()
     }
@@ -134,6 +137,7 @@ impl Version for Embree3 {
 
 impl Version for Embree4 {
     const VERSION: EmbreeVersion = EmbreeVersion::V4;
+    const BATCH_CALL: &'static str = "rtcIntersect1 loop, coherent flag";
     fn api() -> Result<&'static Self, String> {
         sys4::api()
     }
@@ -299,6 +303,7 @@ impl<V: Version> Accel for EmbreeAccel<'_, V> {
             memory_bytes: self.device.memory_bytes(),
             tree: None,
             counts_tests: false,
+            batch_call: V::BATCH_CALL,
             details: self.description(),
         }
     }

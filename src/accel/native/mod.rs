@@ -499,6 +499,7 @@ impl Accel for NativeBvh {
                 sah_cost: self.shape.sah_cost,
             }),
             counts_tests: true,
+            batch_call: "closest_hit loop",
             details: format!(
                 "{} triangles, {} build, max leaf {}, 8-wide {} traversal",
                 self.options.triangle.name(),
