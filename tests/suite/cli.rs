@@ -35,7 +35,7 @@ fn renders_a_shared_scene_framed_like_the_course() {
     );
     assert!(o.status.success(), "{}", text(&o));
     let stdout = String::from_utf8_lossy(&o.stdout);
-    for part in ["14 primitives", "BVH built", "Mrays/s", "wrote"] {
+    for part in ["14 primitives", "native built in", "Mrays/s", "wrote"] {
         assert!(stdout.contains(part), "output lacks '{part}': {stdout}");
     }
     let img = image::open(&out).expect("a readable PNG").to_rgb8();
