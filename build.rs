@@ -1,5 +1,7 @@
 //! Generates Embree 3's bindings with bindgen, as a table of functions
-//! loaded at run time, and records the compiler's version for the report.
+//! loaded at run time, compiles the plain-C Embree driver
+//! (`csrc/embree_plain.c`, the report's baseline), and records the
+//! compiler's version for the report.
 //!
 //! No Embree is linked. Embree 3 and Embree 4 export the same `rtc*` symbol
 //! names, so at most one of them could be linked the ordinary way; hybrid
@@ -53,6 +55,16 @@ fn main() {
     )
     .unwrap_or_else(|e| fail(&format!("cannot write the embree4 link stub: {e}")));
     println!("cargo:rustc-link-search=native={}", stub.display());
+
+    // Embree as a plain C caller calls it: the baseline the report and
+    // `hybrid bench` compare with (it takes the functions as pointers, so
+    // it needs no Embree header).
+    println!("cargo:rerun-if-changed=csrc/embree_plain.c");
+    cc::Build::new()
+        .file("csrc/embree_plain.c")
+        .opt_level(2)
+        .warnings(true)
+        .compile("hybrid_embree_plain");
 
     // The compiler's version, for the report's header.
     let rustc = env::var("RUSTC").unwrap_or_else(|_| "rustc".into());

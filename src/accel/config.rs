@@ -9,6 +9,7 @@ use super::native::build::BuildMethod;
 use super::native::triangle::TriangleMode;
 use super::native::{NativeBvh, NativeOptions};
 use super::{brute, Accel, AccelError, AccelStats, TraceCounters};
+use crate::geom::ray::FlatRay;
 use crate::choice::Choice;
 use crate::geom::{Hit, Ray};
 use crate::scene::Scene;
@@ -58,6 +59,15 @@ impl Accel for Backend<'_> {
             Backend::Embree3(a) => a.stats(),
             Backend::Embree4(a) => a.stats(),
             Backend::Brute(a) => a.stats(),
+        }
+    }
+
+    fn trace_as_c_caller(&self, rays: &[FlatRay], occluded: bool) -> Option<usize> {
+        match self {
+            Backend::Native(a) => a.trace_as_c_caller(rays, occluded),
+            Backend::Embree3(a) => a.trace_as_c_caller(rays, occluded),
+            Backend::Embree4(a) => a.trace_as_c_caller(rays, occluded),
+            Backend::Brute(a) => a.trace_as_c_caller(rays, occluded),
         }
     }
 }

@@ -20,6 +20,7 @@ pub mod embree;
 pub mod native;
 
 pub use self::config::{Backend, BackendConfig};
+use crate::geom::ray::FlatRay;
 use crate::geom::{Hit, Ray};
 
 /// Per-thread counters of the work a backend did; summed at the end of a
@@ -112,6 +113,15 @@ pub trait Accel: Sync + Send {
         out.extend(rays.iter().map(|r| self.closest_hit(r, &mut counters)));
     }
     fn stats(&self) -> AccelStats;
+    /// The backend's library traced as a plain C program calls it, one
+    /// call per ray (Embree through `csrc/embree_plain.c`): the number of
+    /// rays that hit (closest hit, or blocked with `occluded`), or `None`
+    /// for backends that are not a C library. The report's baseline, so
+    /// that no wrapper's cost is credited to the native backend.
+    fn trace_as_c_caller(&self, rays: &[FlatRay], occluded: bool) -> Option<usize> {
+        let _ = (rays, occluded);
+        None
+    }
 }
 
 /// Why a backend could not be built.

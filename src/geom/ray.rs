@@ -14,6 +14,11 @@ pub struct Ray {
     pub t_max: f32,
 }
 
+/// A ray as eight floats: origin xyz, direction xyz, `t_min`, `t_max`
+/// (the layout of exported ray files, `docs/rays.md`, and of the plain-C
+/// Embree driver).
+pub type FlatRay = [f32; 8];
+
 /// The closest hit along a ray: what every backend reports, and all it
 /// reports. The shading data (position, normals, material) are derived
 /// from these once, above the backends
@@ -100,6 +105,20 @@ impl Ray {
     #[inline]
     pub fn shadow(from: &SpawnPoint, wi: Vec3, distance: f32) -> Ray {
         Ray::spawn(from, wi, distance * SHADOW_END)
+    }
+
+    pub fn flat(&self) -> FlatRay {
+        let (o, d) = (self.origin, self.dir);
+        [o.x, o.y, o.z, d.x, d.y, d.z, self.t_min, self.t_max]
+    }
+
+    pub fn from_flat(f: &FlatRay) -> Ray {
+        Ray {
+            origin: Vec3::new(f[0], f[1], f[2]),
+            dir: Vec3::new(f[3], f[4], f[5]),
+            t_min: f[6],
+            t_max: f[7],
+        }
     }
 
     #[inline]

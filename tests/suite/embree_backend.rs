@@ -343,3 +343,39 @@ fn the_default_render_has_no_junction_pixels_only_one_backend_darkens() {
         }
     }
 }
+
+#[test]
+fn embree_called_as_a_plain_c_program_gives_the_wrappers_answers() {
+    let scene = scene_or_skip!("sky/CBbunny.dae");
+    let camera = rays::camera_rays(&scene, 20_000, 1);
+    let incoherent = rays::occlusion_rays(&scene, 20_000, 5);
+    for version in versions() {
+        let embree = embree(version, BuildQuality::Medium, false, 0)
+            .build(&scene)
+            .expect("embree builds");
+        let flat = |rays: &[Ray]| rays.iter().map(Ray::flat).collect::<Vec<_>>();
+        let hits = camera
+            .iter()
+            .filter(|r| embree.closest_hit(r, &mut TraceCounters::default()).is_some())
+            .count();
+        let blocked = incoherent
+            .iter()
+            .filter(|r| embree.occluded(r, &mut TraceCounters::default()))
+            .count();
+        assert!(hits > 1000 && blocked > 1000, "{hits} hits, {blocked} blocked");
+        assert_eq!(
+            embree.trace_as_c_caller(&flat(&camera), false),
+            Some(hits),
+            "{}: closest hits",
+            version.name()
+        );
+        assert_eq!(
+            embree.trace_as_c_caller(&flat(&incoherent), true),
+            Some(blocked),
+            "{}: occluded rays",
+            version.name()
+        );
+    }
+    let native = NativeBvh::build(&scene, &NativeOptions::default()).expect("native builds");
+    assert_eq!(native.trace_as_c_caller(&[], false), None);
+}

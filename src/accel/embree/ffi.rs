@@ -19,6 +19,7 @@ use std::marker::PhantomData;
 
 use super::library::{self, ErrorSink, RawHit};
 use super::{BuildQuality, SceneOptions};
+use crate::geom::ray::FlatRay;
 
 /// An opaque Embree handle (`RTCDevice`, `RTCScene`, `RTCGeometry`).
 pub type Handle = *mut c_void;
@@ -112,6 +113,24 @@ pub unsafe trait Api: Sync + 'static {
         rays: &[RawRay],
         out: &mut Vec<Option<RawHit>>,
     );
+    /// The version's `rtcIntersect1` and `rtcOccluded1` as plain C calls
+    /// them, for the C driver (`plain_c.rs`).
+    fn c_functions(&self) -> CFunctions;
+}
+
+/// An Embree version's single-ray functions, as C function pointers.
+#[derive(Clone, Copy, Debug)]
+pub struct CFunctions {
+    pub version: EmbreeMajor,
+    pub intersect1: *const c_void,
+    pub occluded1: *const c_void,
+}
+
+/// Which header layout the C driver uses.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum EmbreeMajor {
+    Three,
+    Four,
 }
 
 /// An Embree device.
@@ -436,6 +455,13 @@ impl<A: Api> Scene<'_, A> {
     pub fn intersect_coherent(&self, rays: &[RawRay], out: &mut Vec<Option<RawHit>>) {
         // SAFETY: as in `intersect`.
         unsafe { self.api.intersect_coherent(self.raw, rays, out) }
+    }
+
+    /// `rays` traced by the C driver, one `rtcIntersect1` (or
+    /// `rtcOccluded1`) per ray as a C program makes them: the number of
+    /// rays that hit and the sum of the hit primitive ids.
+    pub fn trace_as_c_caller(&self, rays: &[FlatRay], occluded: bool) -> (usize, u64) {
+        super::plain_c::trace(self.api.c_functions(), self.raw, rays, occluded)
     }
 }
 

@@ -23,6 +23,7 @@
 
 mod ffi;
 mod library;
+mod plain_c;
 #[cfg(hybrid_embree3)]
 mod sys3;
 #[cfg(not(hybrid_embree3))]
@@ -39,6 +40,7 @@ use self::library::RawHit;
 pub use self::sys3::Embree3;
 pub use self::sys4::Embree4;
 use super::{Accel, AccelError, AccelStats, TraceCounters};
+use crate::geom::ray::FlatRay;
 use crate::geom::{Hit, Ray};
 use crate::scene::Scene;
 
@@ -293,6 +295,10 @@ impl<V: Version> Accel for EmbreeAccel<'_, V> {
         self.scene.intersect_coherent(&batch, &mut raw);
         out.clear();
         out.extend(raw.iter().map(|h| h.as_ref().map(|h| self.to_hit(h))));
+    }
+
+    fn trace_as_c_caller(&self, rays: &[FlatRay], occluded: bool) -> Option<usize> {
+        Some(self.scene.trace_as_c_caller(rays, occluded).0)
     }
 
     fn stats(&self) -> AccelStats {

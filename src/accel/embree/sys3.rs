@@ -5,7 +5,9 @@
 use std::ffi::{c_char, c_void};
 use std::sync::OnceLock;
 
-use super::ffi::{value, Api, ErrorFunction, Handle, MemoryMonitor, RawRay};
+use super::ffi::{
+    value, Api, CFunctions, EmbreeMajor, ErrorFunction, Handle, MemoryMonitor, RawRay,
+};
 use super::library::{self, RawHit, INVALID_GEOMETRY_ID};
 
 mod raw {
@@ -249,5 +251,12 @@ unsafe impl Api for Embree3 {
         );
         out.clear();
         out.extend(batch.iter().map(raw_hit));
+    }
+    fn c_functions(&self) -> CFunctions {
+        CFunctions {
+            version: EmbreeMajor::Three,
+            intersect1: self.0.rtcIntersect1 as *const c_void,
+            occluded1: self.0.rtcOccluded1 as *const c_void,
+        }
     }
 }

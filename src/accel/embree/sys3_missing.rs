@@ -4,7 +4,7 @@
 
 use std::ffi::{c_char, c_void};
 
-use super::ffi::{Api, ErrorFunction, Handle, MemoryMonitor, RawRay};
+use super::ffi::{Api, CFunctions, ErrorFunction, Handle, MemoryMonitor, RawRay};
 use super::library::RawHit;
 
 /// Embree 3, absent from this build: an empty type, never constructed.
@@ -84,6 +84,9 @@ unsafe impl Api for Embree3 {
         match *self {}
     }
     unsafe fn intersect_coherent(&self, _: Handle, _: &[RawRay], _: &mut Vec<Option<RawHit>>) {
+        match *self {}
+    }
+    fn c_functions(&self) -> CFunctions {
         match *self {}
     }
 }

@@ -15,7 +15,9 @@ use std::sync::OnceLock;
 use embree4_sys as e4;
 use libloading::os::unix::Library;
 
-use super::ffi::{value, Api, ErrorFunction, Handle, MemoryMonitor, RawRay};
+use super::ffi::{
+    value, Api, CFunctions, EmbreeMajor, ErrorFunction, Handle, MemoryMonitor, RawRay,
+};
 use super::library::{self, RawHit, INVALID_GEOMETRY_ID};
 
 // The enum values the safe layer passes are Embree 4's.
@@ -344,5 +346,12 @@ unsafe impl Api for Embree4 {
             (self.table.rtcIntersect1)(scene, &mut rayhit, &mut args);
             raw_hit(&rayhit)
         }));
+    }
+    fn c_functions(&self) -> CFunctions {
+        CFunctions {
+            version: EmbreeMajor::Four,
+            intersect1: self.table.rtcIntersect1 as *const c_void,
+            occluded1: self.table.rtcOccluded1 as *const c_void,
+        }
     }
 }
