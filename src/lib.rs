@@ -7,12 +7,14 @@
 //! - [`render`]: camera, sampling, materials, lights, integrators and film.
 //! - [`parity`]: the cross-backend agreement and numerical-stability suite.
 //! - [`report`]: the performance comparison report.
+//! - [`bench`]: exported ray sets and their replay on every backend.
 //! - [`cli`]: the command-line front end.
 //! - [`choice`]: one spelling for every named option value.
 //! - [`text`]: text set into images (captions, legends).
 //! - [`input`]: how user files are read (regular files, caps, quoting).
 
 pub mod accel;
+pub mod bench;
 pub mod choice;
 pub mod cli;
 pub mod geom;

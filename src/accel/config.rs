@@ -9,8 +9,8 @@ use super::native::build::BuildMethod;
 use super::native::triangle::TriangleMode;
 use super::native::{NativeBvh, NativeOptions};
 use super::{brute, Accel, AccelError, AccelStats, TraceCounters};
-use crate::geom::ray::FlatRay;
 use crate::choice::Choice;
+use crate::geom::ray::FlatRay;
 use crate::geom::{Hit, Ray};
 use crate::scene::Scene;
 

@@ -1,4 +1,5 @@
-//! The command line: `hybrid render`, `hybrid parity`, `hybrid report`.
+//! The command line: `hybrid render`, `series`, `merge`, `parity`,
+//! `report`, `rays export` and `bench`.
 //!
 //! Every failure becomes one line on stderr naming what and where, and exit
 //! code 2; nothing is written under the output name unless the render
@@ -13,6 +14,7 @@ macro_rules! say {
     }};
 }
 
+mod bench;
 mod merge;
 mod parity;
 mod render;
@@ -53,6 +55,12 @@ pub enum Command {
     /// Render one scene over a list of values of one option into a
     /// labelled contact sheet (a write-up's figure in one command).
     Series(series::SeriesArgs),
+    /// Export the report's ray sets and a scene's triangles as files
+    /// (`rays export DIR SCENE`).
+    Rays(bench::RaysArgs),
+    /// Replay exported ray sets on every backend, one thread, against
+    /// Embree called as a plain C program calls it.
+    Bench(bench::BenchArgs),
 }
 
 /// On SIGINT, SIGTERM or SIGHUP: remove the temporary files of any write
@@ -129,6 +137,8 @@ pub fn main() -> i32 {
         Command::Parity(args) => parity::run(&args),
         Command::Report(args) => report::run(&args).map(|()| true),
         Command::Merge(args) => merge::run(&args).map(|()| true),
+        Command::Rays(args) => bench::run_rays(&args).map(|()| true),
+        Command::Bench(args) => bench::run_bench(&args).map(|()| true),
         Command::Series(args) => {
             let raw: Vec<String> = std::env::args().skip(2).collect();
             series::run(&args, &raw).map(|()| true)

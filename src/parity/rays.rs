@@ -12,25 +12,45 @@ use crate::render::camera::{Camera, CameraMode};
 use crate::render::light::sample_li;
 use crate::scene::Scene;
 
+/// The order camera rays come in.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum CameraOrder {
+    /// 8x8-pixel tiles, as the renderer traces them.
+    Tiles,
+    /// Scanline rows, top to bottom.
+    Rows,
+}
+
 /// Camera rays in the order a renderer sends them: 8x8-pixel tiles of a
 /// 4:3 image of about `n` pixels, one jittered ray per pixel.
 pub fn camera_rays(scene: &Scene, n: usize, seed: u64) -> Vec<Ray> {
+    camera_rays_in(scene, n, seed, CameraOrder::Tiles)
+}
+
+/// The same rays as [`camera_rays`] (the jitter of each pixel is the
+/// same), in `order`.
+pub fn camera_rays_in(scene: &Scene, n: usize, seed: u64, order: CameraOrder) -> Vec<Ray> {
     let h = (((n as f64) * 3.0 / 4.0).sqrt().ceil() as u32).max(1);
     let w = ((n as u32).div_ceil(h)).max(1);
     let camera = Camera::new(scene, CameraMode::Canonical, w, h);
     let mut rng = Rng::new(seed, 1);
-    let mut rays = Vec::with_capacity(n);
+    let mut tiled = Vec::with_capacity((w * h) as usize);
     for ty in (0..h).step_by(8) {
         for tx in (0..w).step_by(8) {
             for y in ty..(ty + 8).min(h) {
                 for x in tx..(tx + 8).min(w) {
-                    rays.push(camera.ray(x as f32 + rng.next_f32(), y as f32 + rng.next_f32()));
+                    let ray = camera.ray(x as f32 + rng.next_f32(), y as f32 + rng.next_f32());
+                    tiled.push((y * w + x, ray));
                 }
             }
         }
     }
-    rays.truncate(n);
-    rays
+    // The first n pixels of the tile order, in either order.
+    tiled.truncate(n);
+    if order == CameraOrder::Rows {
+        tiled.sort_by_key(|&(pixel, _)| pixel);
+    }
+    tiled.into_iter().map(|(_, r)| r).collect()
 }
 
 /// Rays from random points inside the scene's bounds (grown by 10% of the

@@ -159,6 +159,109 @@ pub fn time_interleaved<T>(
     seconds.into_iter().map(Measured::from_samples).collect()
 }
 
+/// The CPU time this thread has used, in seconds
+/// (`CLOCK_THREAD_CPUTIME_ID`): what a one-thread figure counts, so that
+/// other work on a busy machine, which takes wall time from the thread but
+/// not CPU time, does not move it.
+pub fn thread_cpu_seconds() -> f64 {
+    let mut t = libc::timespec {
+        tv_sec: 0,
+        tv_nsec: 0,
+    };
+    // SAFETY: `t` is a valid timespec to write; the clock id is a constant
+    // every Linux kernel since 2.6.12 knows.
+    let ok = unsafe { libc::clock_gettime(libc::CLOCK_THREAD_CPUTIME_ID, &mut t) } == 0;
+    if ok {
+        t.tv_sec as f64 + t.tv_nsec as f64 * 1e-9
+    } else {
+        f64::NAN
+    }
+}
+
+/// How one-thread runs stop repeating: after at least `min` rounds (and
+/// never before three), once
+/// every run's ratio to run 0 is known within this much (the 95% interval
+/// of the median of the per-round ratios), or after `max` rounds.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Settle {
+    pub min: usize,
+    pub max: usize,
+    /// Half-width of the interval, relative to the median (0.03: ±3%).
+    pub within: f64,
+}
+
+/// One-thread timings of several runs measured together.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Settled {
+    /// Per run: thread CPU seconds per repeat.
+    pub cpu: Vec<Measured>,
+    /// Per run: wall seconds per repeat.
+    pub wall: Vec<Measured>,
+    pub rounds: usize,
+    /// Whether every ratio to run 0 settled within the bound before the
+    /// cap (else the figures are flagged).
+    pub settled: bool,
+    /// The widest relative half-width of the ratios' intervals.
+    pub widest: f64,
+}
+
+/// The 95% interval of the median of `v` from order statistics (ranks
+/// `n/2 ± 0.98 sqrt(n)`), with no assumption on the distribution.
+pub fn median_interval(v: &[f64]) -> (f64, f64, f64) {
+    let mut v: Vec<f64> = v.to_vec();
+    v.sort_by(f64::total_cmp);
+    let n = v.len();
+    if n == 0 {
+        return (0.0, 0.0, 0.0);
+    }
+    let half = 0.98 * (n as f64).sqrt();
+    let centre = n as f64 / 2.0;
+    let lo = ((centre - half).floor().max(1.0) as usize).min(n) - 1;
+    let hi = ((centre + half).ceil() as usize).clamp(1, n) - 1;
+    let median = Measured::from_samples(v.clone()).median;
+    (v[lo], median, v[hi])
+}
+
+/// Runs `n` closures in interleaved rounds (forwards, then backwards) on
+/// this thread, timing each by thread CPU time and by wall time, until the
+/// ratios of run 0's CPU time to every other run's settle ([`Settle`]).
+pub fn time_settled(n: usize, settle: Settle, mut run: impl FnMut(usize)) -> Settled {
+    for i in 0..n {
+        run(i);
+    }
+    let mut cpu = vec![Vec::new(); n];
+    let mut wall = vec![Vec::new(); n];
+    let mut out = Settled::default();
+    for round in 0..settle.max.max(1) {
+        for k in 0..n {
+            let i = if round % 2 == 0 { k } else { n - 1 - k };
+            let (c, w) = (thread_cpu_seconds(), Instant::now());
+            run(i);
+            wall[i].push(w.elapsed().as_secs_f64());
+            cpu[i].push(thread_cpu_seconds() - c);
+        }
+        out.rounds = round + 1;
+        // Fewer than three ratios bound nothing.
+        if out.rounds < settle.min.max(3) {
+            continue;
+        }
+        out.widest = (1..n)
+            .map(|j| {
+                let ratios: Vec<f64> = cpu[0].iter().zip(&cpu[j]).map(|(a, b)| a / b).collect();
+                let (lo, median, hi) = median_interval(&ratios);
+                ((hi - median) / median).max((median - lo) / median)
+            })
+            .fold(0.0, f64::max);
+        if out.widest <= settle.within {
+            out.settled = true;
+            break;
+        }
+    }
+    out.cpu = cpu.into_iter().map(Measured::from_samples).collect();
+    out.wall = wall.into_iter().map(Measured::from_samples).collect();
+    out
+}
+
 /// Million rays per second of several backends on the same `rays`, their
 /// repeats interleaved ([`time_interleaved`]).
 pub fn mrays_interleaved<A: Accel>(
@@ -204,7 +307,9 @@ pub struct RaySet {
 }
 
 /// The ray kinds the report and the benches trace, about `n` each:
-/// - `camera`: jittered pinhole rays in tile order over the framed scene;
+/// - `camera`: jittered pinhole rays in tile order over the framed scene
+///   (as the renderer traces them);
+/// - `camera rows`: the same rays in scanline order;
 /// - `incoherent`: origins uniform in the scene's bounds, uniform
 ///   directions;
 /// - `shadow`: the incoherent rays as occlusion queries reaching half the
@@ -220,6 +325,11 @@ pub fn ray_sets<A: Accel>(scene: &Scene, finder: &A, n: usize) -> Vec<RaySet> {
             kind: "camera",
             query: Query::Closest,
             rays: rays::camera_rays(scene, n, 1),
+        },
+        RaySet {
+            kind: "camera rows",
+            query: Query::Closest,
+            rays: rays::camera_rays_in(scene, n, 1, rays::CameraOrder::Rows),
         },
         RaySet {
             kind: "incoherent",
@@ -242,4 +352,47 @@ pub fn ray_sets<A: Accel>(scene: &Scene, finder: &A, n: usize) -> Vec<RaySet> {
             rays: rays::shadow_rays(scene, finder, n, 2),
         },
     ]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_median_interval_brackets_the_median_and_narrows_with_more_samples() {
+        let few: Vec<f64> = (1..=9).map(f64::from).collect();
+        let (lo, m, hi) = median_interval(&few);
+        assert!(lo < m && m < hi && m == 5.0, "{lo} {m} {hi}");
+        let many: Vec<f64> = (1..=401).map(f64::from).collect();
+        let (lo2, m2, hi2) = median_interval(&many);
+        assert_eq!(m2, 201.0);
+        assert!((hi2 - lo2) / m2 < (hi - lo) / m, "{lo2}..{hi2} of {m2}");
+    }
+
+    #[test]
+    fn runs_of_equal_work_settle_and_a_cap_of_one_round_does_not() {
+        let work = |n: u64| (0..n).fold(0u64, |a, i| a.wrapping_mul(31).wrapping_add(i));
+        let settle = Settle {
+            min: 5,
+            max: 40,
+            within: 0.5,
+        };
+        let t = time_settled(2, settle, |_| {
+            std::hint::black_box(work(200_000));
+        });
+        assert!(t.settled, "widest {} after {} rounds", t.widest, t.rounds);
+        assert!(t.cpu.iter().all(|m| m.median > 0.0) && t.wall.len() == 2);
+        let capped = time_settled(
+            2,
+            Settle {
+                min: 1,
+                max: 1,
+                within: 0.0,
+            },
+            |i| {
+                std::hint::black_box(work(1000 * (i as u64 + 1)));
+            },
+        );
+        assert!(!capped.settled && capped.rounds == 1);
+    }
 }

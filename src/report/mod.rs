@@ -19,6 +19,7 @@ pub mod gallery;
 pub mod headline;
 pub mod machine;
 pub mod measure;
+pub mod paired;
 pub mod plot;
 pub mod scaling;
 pub mod scenes;

@@ -356,13 +356,20 @@ fn embree_called_as_a_plain_c_program_gives_the_wrappers_answers() {
         let flat = |rays: &[Ray]| rays.iter().map(Ray::flat).collect::<Vec<_>>();
         let hits = camera
             .iter()
-            .filter(|r| embree.closest_hit(r, &mut TraceCounters::default()).is_some())
+            .filter(|r| {
+                embree
+                    .closest_hit(r, &mut TraceCounters::default())
+                    .is_some()
+            })
             .count();
         let blocked = incoherent
             .iter()
             .filter(|r| embree.occluded(r, &mut TraceCounters::default()))
             .count();
-        assert!(hits > 1000 && blocked > 1000, "{hits} hits, {blocked} blocked");
+        assert!(
+            hits > 1000 && blocked > 1000,
+            "{hits} hits, {blocked} blocked"
+        );
         assert_eq!(
             embree.trace_as_c_caller(&flat(&camera), false),
             Some(hits),

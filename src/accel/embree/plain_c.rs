@@ -16,8 +16,12 @@ extern "C" {
         n: usize,
         checksum: *mut u64,
     ) -> usize;
-    fn hybrid_embree3_occluded(f: *const c_void, scene: Handle, rays: *const f32, n: usize)
-        -> usize;
+    fn hybrid_embree3_occluded(
+        f: *const c_void,
+        scene: Handle,
+        rays: *const f32,
+        n: usize,
+    ) -> usize;
     fn hybrid_embree4_closest(
         f: *const c_void,
         scene: Handle,
@@ -25,13 +29,22 @@ extern "C" {
         n: usize,
         checksum: *mut u64,
     ) -> usize;
-    fn hybrid_embree4_occluded(f: *const c_void, scene: Handle, rays: *const f32, n: usize)
-        -> usize;
+    fn hybrid_embree4_occluded(
+        f: *const c_void,
+        scene: Handle,
+        rays: *const f32,
+        n: usize,
+    ) -> usize;
 }
 
 /// Traces `rays` on the committed `scene` of the version whose functions
 /// are `c`; returns the hit count and the sum of hit primitive ids.
-pub(super) fn trace(c: CFunctions, scene: Handle, rays: &[FlatRay], occluded: bool) -> (usize, u64) {
+pub(super) fn trace(
+    c: CFunctions,
+    scene: Handle,
+    rays: &[FlatRay],
+    occluded: bool,
+) -> (usize, u64) {
     let mut checksum = 0u64;
     let (p, n) = (rays.as_ptr().cast::<f32>(), rays.len());
     // SAFETY: `c` holds the functions of the version whose layouts the C

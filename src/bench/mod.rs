@@ -1,0 +1,129 @@
+//! Ray sets anyone can replay: `hybrid rays export DIR SCENE` writes the
+//! scene's triangles (transforms applied, as hybrid loads them) and every
+//! ray kind of the report in the files of [`file`]; `hybrid bench DIR`
+//! replays them on every backend, on one thread, against Embree called as
+//! a plain C program calls it. Another program reading the same files
+//! (`docs/rays.md` has a C reader) measures the same rays.
+
+pub mod file;
+
+use std::path::Path;
+
+use crate::accel::config::compared;
+use crate::accel::{Backend, BackendConfig};
+use crate::geom::ray::FlatRay;
+use crate::geom::Ray;
+use crate::report::measure::ray_sets;
+pub use crate::report::measure::Settle;
+pub use crate::report::paired::{compare, table, PairedRow};
+use crate::scene::{Scene, TriangleMesh};
+
+/// The file of a ray kind: `camera rows` -> `camera_rows.rays`.
+pub fn file_name(kind: &str) -> String {
+    format!("{}.rays", kind.replace(' ', "_"))
+}
+
+/// The triangles file's name.
+pub const TRIANGLES: &str = "triangles.bin";
+
+/// The ray kinds exported, in the report's order.
+pub const KINDS: [&str; 6] = [
+    "camera",
+    "camera rows",
+    "incoherent",
+    "shadow",
+    "bounce",
+    "light",
+];
+
+/// What an export wrote.
+pub struct Exported {
+    pub triangles: usize,
+    /// Spheres of the scene that were left out (the files hold triangles).
+    pub spheres_dropped: usize,
+    pub sets: Vec<(String, usize)>,
+}
+
+/// Writes `scene`'s triangles and about `n` rays of each kind into `dir`.
+/// The rays are made on the triangles alone, so that a replay on the
+/// exported triangles sees the same hits.
+pub fn export(scene: &Scene, dir: &Path, n: usize) -> Result<Exported, String> {
+    let mut triangles_only = scene.clone();
+    let spheres_dropped = std::mem::take(&mut triangles_only.spheres).len();
+    let finder = BackendConfig::NATIVE
+        .build(&triangles_only)
+        .map_err(|e| e.to_string())?;
+    std::fs::create_dir_all(dir)
+        .map_err(|e| format!("{}: cannot create the folder: {e}", dir.display()))?;
+    let corners: Vec<[f32; 9]> = (0..triangles_only.mesh.len())
+        .map(|i| {
+            let [a, b, c] = triangles_only.mesh.corners(i);
+            [a.x, a.y, a.z, b.x, b.y, b.z, c.x, c.y, c.z]
+        })
+        .collect();
+    file::write_triangles(&dir.join(TRIANGLES), &corners).map_err(|e| e.to_string())?;
+    let mut sets = Vec::new();
+    for set in ray_sets(&triangles_only, &finder, n) {
+        let flat: Vec<FlatRay> = set.rays.iter().map(Ray::flat).collect();
+        let name = file_name(set.kind);
+        file::write_rays(&dir.join(&name), set.query, &flat).map_err(|e| e.to_string())?;
+        sets.push((name, flat.len()));
+    }
+    Ok(Exported {
+        triangles: corners.len(),
+        spheres_dropped,
+        sets,
+    })
+}
+
+/// The scene of a triangles file: one mesh, one default material.
+pub fn scene_of(triangles: &[[f32; 9]], name: &str) -> Scene {
+    let mut mesh = TriangleMesh::default();
+    for t in triangles {
+        let base = mesh.positions.len() as u32;
+        for c in 0..3 {
+            mesh.positions
+                .push(glam::Vec3::new(t[3 * c], t[3 * c + 1], t[3 * c + 2]));
+        }
+        mesh.indices.push([base, base + 1, base + 2]);
+        mesh.materials.push(0);
+    }
+    let mut scene = Scene {
+        name: name.to_string(),
+        mesh,
+        normal_mode: crate::scene::NormalMode::Flat,
+        ..Scene::default()
+    };
+    scene.framing_bounds = scene.bounds();
+    scene
+}
+
+/// Replays every ray set in `dir` on every compared backend, one thread,
+/// each Embree through its wrapper and as a plain C caller.
+pub fn replay(dir: &Path, settle: Settle) -> Result<Vec<PairedRow>, String> {
+    let triangles = file::read_triangles(&dir.join(TRIANGLES)).map_err(|e| e.to_string())?;
+    let scene = scene_of(&triangles, &dir.display().to_string());
+    let backends = compared()
+        .iter()
+        .map(|c| Ok((c.label(), c.with_threads(1).build(&scene)?)))
+        .collect::<Result<Vec<_>, crate::accel::AccelError>>()
+        .map_err(|e| e.to_string())?;
+    let mut rows = Vec::new();
+    for kind in KINDS {
+        let path = dir.join(file_name(kind));
+        if !path.exists() {
+            continue;
+        }
+        let (query, flat) = file::read_rays(&path).map_err(|e| e.to_string())?;
+        let refs: Vec<(String, &Backend)> = backends.iter().map(|(l, b)| (l.clone(), b)).collect();
+        rows.push(compare(kind, query, &flat, &refs, settle));
+    }
+    if rows.is_empty() {
+        return Err(format!(
+            "{}: no ray files (hybrid rays export {} SCENE writes them)",
+            dir.display(),
+            dir.display()
+        ));
+    }
+    Ok(rows)
+}

@@ -1,0 +1,110 @@
+//! `hybrid rays export DIR SCENE` and `hybrid bench DIR`: the report's ray
+//! sets as files anyone can replay, and their replay on every backend
+//! against Embree called as a plain C program calls it.
+
+use std::path::PathBuf;
+
+use clap::{Args, Subcommand};
+
+use super::SceneInput;
+use crate::bench::{export, replay, table};
+use crate::report::measure::{on_threads, Settle};
+use crate::scene::NormalMode;
+
+#[derive(Args, Debug, Clone)]
+pub struct RaysArgs {
+    #[command(subcommand)]
+    pub command: RaysCommand,
+}
+
+#[derive(Subcommand, Debug, Clone)]
+pub enum RaysCommand {
+    /// Write a scene's triangles (transforms applied) and every ray kind of
+    /// the report into DIR (format: docs/rays.md).
+    Export(ExportArgs),
+}
+
+#[derive(Args, Debug, Clone)]
+pub struct ExportArgs {
+    /// The folder to write (created if missing; its ray files are replaced).
+    pub dir: PathBuf,
+    #[command(flatten)]
+    pub input: SceneInput,
+    /// Rays per kind.
+    #[arg(long, default_value_t = 1_000_000, value_parser = clap::value_parser!(u64).range(1..=(1 << 26)))]
+    pub rays: u64,
+}
+
+#[derive(Args, Debug, Clone)]
+pub struct BenchArgs {
+    /// A folder written by `hybrid rays export`.
+    pub dir: PathBuf,
+    /// Fewest interleaved rounds per ray kind.
+    #[arg(long, default_value_t = 5, value_parser = clap::value_parser!(u64).range(3..=1000))]
+    pub min_rounds: u64,
+    /// Most rounds: a kind whose ratios have not settled by then is flagged.
+    #[arg(long, default_value_t = 21, value_parser = clap::value_parser!(u64).range(3..=1000))]
+    pub max_rounds: u64,
+    /// Stop once each ratio to native is known within this many percent
+    /// (95% interval of the median).
+    #[arg(long, default_value_t = 3.0)]
+    pub within: f64,
+}
+
+pub fn run_rays(args: &RaysArgs) -> Result<(), String> {
+    match &args.command {
+        RaysCommand::Export(a) => {
+            let scene = a.input.load(NormalMode::Smooth)?;
+            let out = export(&scene, &a.dir, a.rays as usize)?;
+            if out.spheres_dropped > 0 {
+                super::report_line(
+                    "warning",
+                    &format!(
+                        "{} spheres left out: the files hold triangles, and the rays were made on them alone",
+                        out.spheres_dropped
+                    ),
+                );
+            }
+            say!(
+                "wrote {} triangles and {} ray sets to {}: {}",
+                out.triangles,
+                out.sets.len(),
+                a.dir.display(),
+                out.sets
+                    .iter()
+                    .map(|(n, c)| format!("{n} ({c})"))
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            );
+            Ok(())
+        }
+    }
+}
+
+pub fn run_bench(args: &BenchArgs) -> Result<(), String> {
+    if !(args.within > 0.0 && args.within.is_finite()) {
+        return Err(format!(
+            "--within {}: the bound must be more than 0 percent",
+            args.within
+        ));
+    }
+    if args.min_rounds > args.max_rounds {
+        return Err(format!(
+            "--min-rounds {} is more than --max-rounds {}",
+            args.min_rounds, args.max_rounds
+        ));
+    }
+    let settle = Settle {
+        min: args.min_rounds as usize,
+        max: args.max_rounds as usize,
+        within: args.within / 100.0,
+    };
+    let rows = on_threads(1, || replay(&args.dir, settle))?;
+    say!(
+        "Replay of {} on one thread: Mrays/s by the thread's CPU time (median and range of the rounds); every run of a kind interleaved, rounds until each ratio to native is known within ±{}% (95% interval of the median of the per-round ratios) or --max-rounds (then ⚠).\n",
+        args.dir.display(),
+        args.within
+    );
+    say!("{}", table(&rows).markdown());
+    Ok(())
+}
