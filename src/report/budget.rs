@@ -3,6 +3,7 @@
 
 use std::path::Path;
 
+use super::measure::Settle;
 use crate::scene::generate::sphere_cloud;
 use crate::scene::Scene;
 
@@ -11,6 +12,8 @@ pub struct Budget {
     /// Rays per ray kind in the per-scene trace tables.
     pub rays: usize,
     pub repeats: usize,
+    /// When the one-thread trace figures stop repeating.
+    pub settle: Settle,
     /// Time per frame: width, height, samples per pixel.
     pub frame: (u32, u32, u32),
     /// Repeats of each backend's frame. More than the traces': a frame is
@@ -44,8 +47,15 @@ impl Budget {
     pub fn new(quick: bool) -> Budget {
         if quick {
             Budget {
-                rays: 50_000,
+                // Fewer scenes, not fewer rays: the quick ratios are the
+                // full report's on the scenes it keeps.
+                rays: 1_000_000,
                 repeats: 3,
+                settle: Settle {
+                    min: 5,
+                    max: 15,
+                    within: 0.03,
+                },
                 frame: (120, 90, 4),
                 frame_repeats: 3,
                 error_resolution: (64, 48),
@@ -68,6 +78,11 @@ impl Budget {
             Budget {
                 rays: 1_000_000,
                 repeats: 5,
+                settle: Settle {
+                    min: 5,
+                    max: 25,
+                    within: 0.03,
+                },
                 frame: (320, 240, 8),
                 frame_repeats: 15,
                 error_resolution: (160, 120),
@@ -157,6 +172,22 @@ pub const SCENES: [ReportScene; 5] = [
         },
     },
 ];
+
+/// The scenes `--quick` keeps: the two course meshes of 10^4+ triangles
+/// that every table of the full report has too.
+pub const QUICK_SCENES: [&str; 2] = ["sky/CBbunny.dae", "meshedit/maxplanck.dae"];
+
+/// The per-scene tables' scenes: all of [`SCENES`], or with `quick` the
+/// [`QUICK_SCENES`].
+pub fn report_scenes(quick: bool) -> Vec<ReportScene> {
+    SCENES
+        .iter()
+        .filter(|s| {
+            !quick || matches!(s.source, Source::Shared(rel) if QUICK_SCENES.contains(&rel))
+        })
+        .copied()
+        .collect()
+}
 
 /// Above this many primitives only the compared backends' builds are
 /// timed (a high-quality Embree build of 10^6 triangles takes seconds).

@@ -9,6 +9,15 @@ use crate::accel::BackendConfig;
 
 /// The Embree backends the headline compares native with: every compared
 /// backend after native, by its index in [`SceneResult::compared`].
+/// `1 thread`, `2 threads`.
+fn threads_text(threads: usize) -> String {
+    if threads == 1 {
+        "1 thread".into()
+    } else {
+        format!("{threads} threads")
+    }
+}
+
 fn rivals(results: &[SceneResult]) -> Vec<(usize, String)> {
     results.first().map_or(Vec::new(), |r| {
         r.compared
@@ -63,7 +72,7 @@ pub fn table(results: &[SceneResult]) -> Table {
     };
     let on = |all: bool| {
         if all {
-            format!("{threads} threads")
+            threads_text(threads)
         } else {
             "1 thread".into()
         }
@@ -90,7 +99,8 @@ pub fn table(results: &[SceneResult]) -> Table {
                                 Cell::ratio_of(t.ratio_all_threads(j), &t.pair(j, true))
                                     .flagged(t.below_one_thread(j).then_some(Flag::BelowOneThread))
                             }
-                            Some(t) => Cell::ratio_of(t.ratio(j), &t.pair(j, false)),
+                            Some(t) => Cell::Ratio(t.ratio(j))
+                                .flagged(t.verdict_unsure(j).then_some(Flag::Noisy)),
                             None => Cell::Empty,
                         })
                         .collect(),
@@ -98,7 +108,20 @@ pub fn table(results: &[SceneResult]) -> Table {
             }
         }
         row(
-            format!("frame, {threads} threads, vs {rival}"),
+            format!("{rival} wrapper / plain C speed, 1 thread, slowest ray kind"),
+            results
+                .iter()
+                .map(|r| {
+                    r.traces
+                        .iter()
+                        .filter_map(|t| t.wrapper_speed(j))
+                        .reduce(f64::min)
+                        .map_or(Cell::Empty, Cell::Ratio)
+                })
+                .collect(),
+        );
+        row(
+            format!("frame, {}, vs {rival}", threads_text(threads)),
             results
                 .iter()
                 .map(|r| Cell::ratio_of(r.frame_ratio(j), &r.frame_pair(j)))
@@ -130,7 +153,7 @@ pub fn versions_table(results: &[SceneResult]) -> Option<Table> {
         let mut cells = vec![Cell::Text(format!("{} rays, 1 thread", t.kind))];
         cells.extend(results.iter().map(|r| {
             let t = &r.traces[k];
-            let pair = [t.one_thread[e4], t.one_thread[e3]];
+            let pair = [t.baseline(e4), t.baseline(e3)];
             Cell::ratio_of(pair[0].median / pair[1].median, &pair)
         }));
         table.row(cells);
@@ -155,6 +178,40 @@ fn one_thread_ratios(r: &SceneResult, j: usize) -> Vec<(String, f64)> {
         out.push(("builds".into(), e.one_thread.median / n.one_thread.median));
     }
     out
+}
+
+/// Where the order of the camera rays (the renderer's tiles or scanline
+/// rows) changes what native against backend `j` reads as: ahead (above
+/// 1.05x), even, or behind (below [`BEHIND`]).
+fn camera_order(meshes: &[&SceneResult], j: usize) -> String {
+    let class = |v: f64| {
+        if v > 1.05 {
+            "ahead"
+        } else if v < BEHIND {
+            "behind"
+        } else {
+            "even"
+        }
+    };
+    let ratio =
+        |r: &SceneResult, kind: &str| r.traces.iter().find(|t| t.kind == kind).map(|t| t.ratio(j));
+    let changed: Vec<String> = meshes
+        .iter()
+        .filter_map(|r| {
+            let (tiles, rows) = (ratio(r, "camera")?, ratio(r, "camera rows")?);
+            (class(tiles) != class(rows))
+                .then(|| format!("{} (tiles {tiles:.2}x, rows {rows:.2}x)", r.scene))
+        })
+        .collect();
+    if changed.is_empty() {
+        "The camera rays' order (tiles or scanline rows) does not change that verdict on any mesh. "
+            .into()
+    } else {
+        format!(
+            "The camera rays' order changes the verdict on {}. ",
+            changed.join("; ")
+        )
+    }
 }
 
 /// `a–bx` (or `ax` when they round alike).
@@ -208,6 +265,9 @@ pub fn verdict(results: &[SceneResult], table: &Table) -> String {
                 describe(&meshes).join(", ")
             );
         }
+        if !meshes.is_empty() {
+            text += &camera_order(&meshes, j);
+        }
         if !small.is_empty() {
             let names: Vec<String> = small
                 .iter()
@@ -223,7 +283,8 @@ pub fn verdict(results: &[SceneResult], table: &Table) -> String {
         let frames: Vec<f64> = results.iter().map(|r| r.frame_ratio(j)).collect();
         if !frames.is_empty() {
             text += &format!(
-                "A path-traced frame on {threads} threads renders at {} of {rival}'s speed. ",
+                "A path-traced frame on {} renders at {} of {rival}'s speed. ",
+                threads_text(threads),
                 range(&frames)
             );
         }
@@ -250,7 +311,7 @@ pub fn verdict(results: &[SceneResult], table: &Table) -> String {
     let (noisy, below) = (table.count(Flag::Noisy), table.count(Flag::BelowOneThread));
     if noisy + below > 0 {
         text += &format!(
-            "Of the headline's figures, {noisy} rest on repeats that spread by more than 10% ({}) and {below} on {threads} threads fell below their one-thread figure ({}): read those with care, or measure again.\n\n",
+            "Of the headline's figures, {noisy} are marked {} (a one-thread ratio whose interval, unsettled at the round cap, spans two verdicts: behind below 0.95x, even, ahead above 1.05x; or an all-threads figure whose repeats spread by more than 10%) and {below} on {threads} threads fell below their one-thread figure ({}): read those with care, or measure again.\n\n",
             Flag::Noisy.mark(),
             Flag::BelowOneThread.mark()
         );
@@ -264,8 +325,9 @@ pub fn markdown(table: &Table, results: &[SceneResult]) -> String {
         .first()
         .and_then(|r| r.traces.first())
         .map_or(0, |t| t.rays);
+    let repeats = results.first().map_or(0, |r| r.repeats);
     format!(
-        "## Headline: native against Embree\n\nSpeed ratios, native over each Embree present (`vs embree3`: Debian's 3.13.5; `vs embree4`: Embree 4, its version in the machine section), builds and frames as that Embree's time over native's: greater than 1 means native is faster. Embree is called through hybrid's wrapper, single rays (each Embree's batch call is in the per-scene sections). Medians of warmed-up repeats on the same rays (about {rays} per kind), every backend's trace and frame repeats interleaved; ⚠ marks a ratio one of whose two figures spread by more than 10% over its repeats, ↓ a figure on all threads below the same figure on one thread (the per-scene sections below give the absolute figures with their ranges). Ray kinds: camera (jittered pinhole grid over the framed scene), incoherent (origins uniform in the scene's bounds, uniform directions), shadow (the incoherent rays as occlusion queries reaching half the bounds' diagonal), bounce (diffuse rays leaving camera hits) and light (shadow rays from camera hits to light samples). The frame is the per-scene section's path-traced render.\n\n{}\n{}",
+        "## Headline: native against Embree\n\nSpeed ratios, native over each Embree present (`vs embree3`: Debian's 3.13.5; `vs embree4`: Embree 4, its version in the machine section), builds and frames as that Embree's time over native's: greater than 1 means native is faster. On one thread Embree is called as a plain C program calls it (`csrc/embree_plain.c`: one `rtcIntersect1` or `rtcOccluded1` per ray), so that no wrapper's cost is credited to native; the wrapper's own speed against it is a row (each Embree's batch call is in the per-scene sections). One-thread figures are Mrays/s by the thread's CPU time, every run of a ray kind interleaved in rounds until each ratio to native is known within ±3% (95% interval of the median of the per-round ratios) or the round cap, then ⚠; all-threads figures are wall-clock medians of {repeats} interleaved repeats, ⚠ where a figure spread by more than 10%, ↓ where it fell below its one-thread figure. About {rays} rays per kind, the same for every backend (`hybrid rays export` writes them as files, `hybrid bench` replays them; docs/rays.md). Ray kinds: camera (jittered pinhole grid over the framed scene, in the renderer's 8x8 tiles), camera rows (the same rays in scanline order), incoherent (origins uniform in the scene's bounds, uniform directions), shadow (the incoherent rays as occlusion queries reaching half the bounds' diagonal), bounce (diffuse rays leaving camera hits) and light (shadow rays from camera hits to light samples). The frame is the per-scene section's path-traced render.\n\n{}\n{}",
         table.markdown(),
         versions_table(results).map_or(String::new(), |t| format!(
             "### Embree 4 against Embree 3\n\nEmbree 4's speed over Embree 3's on the same rays and frames, both at medium quality (builds and frames: Embree 3's time over Embree 4's), greater than 1 means Embree 4 is faster.\n\n{}\n",

@@ -31,7 +31,7 @@ use std::time::Instant;
 
 use serde_json::json;
 
-use self::budget::{Budget, SCENES};
+use self::budget::{report_scenes, Budget};
 use crate::accel::config::compared;
 use crate::accel::{Accel, AccelError, BackendConfig};
 use crate::scene::builtin::Builtin;
@@ -96,7 +96,7 @@ pub fn run(options: &ReportOptions, log: &mut dyn FnMut(&str)) -> Result<(), Str
         .join("; ");
 
     let mut per_scene = Vec::new();
-    for s in &SCENES {
+    for s in &report_scenes(options.quick) {
         let scene = s.load(&options.scenes_dir)?;
         per_scene.push(scenes::measure(
             s.size,

@@ -12,9 +12,12 @@ use super::budget::ALL_BUILDS_UP_TO;
 use super::measure::{
     mrays_interleaved, on_threads, ray_sets, time_interleaved, time_repeats, Measured,
 };
+use super::paired::compare;
 use super::table::{Cell, Flag, Table};
 use crate::accel::config::{build_variants, compared};
-use crate::accel::{Accel, AccelStats, BackendConfig, TreeFacts};
+use crate::accel::{Accel, AccelStats, Backend, BackendConfig, TreeFacts};
+use crate::geom::ray::FlatRay;
+use crate::geom::Ray;
 use crate::render::integrator::{PathSettings, Shading};
 use crate::render::{render, RenderSettings, Silent};
 use crate::scene::Scene;
@@ -32,16 +35,47 @@ pub struct BuildRow {
 pub struct TraceRow {
     pub kind: &'static str,
     pub rays: usize,
-    /// Million rays per second per compared backend, one thread.
+    /// Million rays per second per compared backend through its `Accel`,
+    /// one thread, by the thread's CPU time.
     pub one_thread: Vec<Measured>,
+    /// Per compared backend: the same rays traced as a plain C program
+    /// calls its library (Embree; `None` for native), one thread.
+    pub plain_c: Vec<Option<Measured>>,
     pub all_threads: Vec<Measured>,
+    /// Interleaved rounds of the one-thread figures, and whether every
+    /// ratio to native settled within the budget's bound.
+    pub rounds: usize,
+    pub settled: bool,
+    /// The widest relative half-width of the ratios' 95% intervals.
+    pub widest: f64,
 }
 
 impl TraceRow {
+    /// What backend `j` is compared by on one thread: its library called
+    /// as plain C does where it has one, else its `Accel`.
+    pub fn baseline(&self, j: usize) -> Measured {
+        self.plain_c[j].unwrap_or(self.one_thread[j])
+    }
+
     /// native / backend `j` on one thread (greater than 1: native is
-    /// faster).
+    /// faster), against its plain-C baseline.
     pub fn ratio(&self, j: usize) -> f64 {
-        self.one_thread[0].median / self.one_thread[j].median
+        self.one_thread[0].median / self.baseline(j).median
+    }
+
+    /// Whether the one-thread ratio to backend `j` did not settle and its
+    /// interval spans two verdicts (behind below 0.95x, even, ahead above
+    /// 1.05x): the one case its flag changes a conclusion.
+    pub fn verdict_unsure(&self, j: usize) -> bool {
+        let class = |v: f64| (v >= 0.95) as u8 + (v > 1.05) as u8;
+        let r = self.ratio(j);
+        !self.settled && class(r * (1.0 - self.widest)) != class(r * (1.0 + self.widest))
+    }
+
+    /// Backend `j`'s speed through hybrid's wrapper over its plain-C
+    /// speed (below 1: the wrapper costs), where it has a plain C caller.
+    pub fn wrapper_speed(&self, j: usize) -> Option<f64> {
+        self.plain_c[j].map(|c| self.one_thread[j].median / c.median)
     }
 
     pub fn ratio_all_threads(&self, j: usize) -> f64 {
@@ -50,12 +84,11 @@ impl TraceRow {
 
     /// The two figures `ratio(j)` rests on.
     pub fn pair(&self, j: usize, all: bool) -> [Measured; 2] {
-        let v = if all {
-            &self.all_threads
+        if all {
+            [self.all_threads[0], self.all_threads[j]]
         } else {
-            &self.one_thread
-        };
-        [v[0], v[j]]
+            [self.one_thread[0], self.baseline(j)]
+        }
     }
 
     /// Whether native or backend `j` traced fewer rays per second on all
@@ -74,6 +107,8 @@ pub struct SceneResult {
     pub primitives: usize,
     pub triangles: usize,
     pub threads: usize,
+    /// Repeats of each all-threads figure.
+    pub repeats: usize,
     /// The compared backends, native first: the order of every per-backend
     /// vector below.
     pub compared: Vec<BackendConfig>,
@@ -159,18 +194,44 @@ pub fn measure(
         .collect::<Result<Vec<_>, _>>()
         .map_err(|e| e.to_string())?;
     let sets = ray_sets(scene, &backends[0], budget.rays);
+    let labelled: Vec<(String, &Backend)> = compared
+        .iter()
+        .zip(&backends)
+        .map(|(c, b)| (c.label(), b))
+        .collect();
     let traces = sets
         .iter()
         .map(|set| {
-            let each = |t: usize| {
-                let all: Vec<_> = backends.iter().collect();
-                mrays_interleaved(&all, &set.rays, set.query, t, budget.repeats)
-            };
+            let flat: Vec<FlatRay> = set.rays.iter().map(Ray::flat).collect();
+            let one = on_threads(1, || {
+                compare(set.kind, set.query, &flat, &labelled, budget.settle)
+            });
+            // Runs come per backend, its plain-C run (if any) first.
+            let (mut one_thread, mut plain_c) = (Vec::new(), Vec::new());
+            let mut runs = one.runs.iter().peekable();
+            while let Some((name, mrays, _)) = runs.next() {
+                if name.ends_with(" plain C") {
+                    plain_c.push(Some(*mrays));
+                    one_thread.push(runs.next().map_or(*mrays, |r| r.1));
+                } else {
+                    plain_c.push(None);
+                    one_thread.push(*mrays);
+                }
+            }
+            let all: Vec<_> = backends.iter().collect();
             TraceRow {
                 kind: set.kind,
                 rays: set.rays.len(),
-                one_thread: each(1),
-                all_threads: each(threads),
+                one_thread,
+                plain_c,
+                all_threads: if threads > 1 {
+                    mrays_interleaved(&all, &set.rays, set.query, threads, budget.repeats)
+                } else {
+                    Vec::new()
+                },
+                rounds: one.rounds,
+                settled: one.settled,
+                widest: one.widest,
             }
         })
         .collect::<Vec<_>>();
@@ -212,6 +273,7 @@ pub fn measure(
         primitives: scene.primitive_count(),
         triangles: scene.triangle_count(),
         threads,
+        repeats: budget.repeats,
         compared,
         builds,
         batch,
@@ -252,49 +314,77 @@ fn builds_table(r: &SceneResult) -> Table {
 fn traces_table(r: &SceneResult) -> Table {
     let t = r.threads;
     let labels: Vec<String> = r.compared.iter().map(BackendConfig::label).collect();
+    // Backends with a plain-C baseline (Embree), by index.
+    let with_c: Vec<usize> = r
+        .traces
+        .first()
+        .map(|row| {
+            (1..labels.len())
+                .filter(|&j| row.plain_c[j].is_some())
+                .collect()
+        })
+        .unwrap_or_default();
     let mut columns = vec![
         ("kind".to_string(), "rays".to_string()),
         ("rays".to_string(), "count".to_string()),
     ];
-    for (threads, key) in [(1, ""), (t, "_all_threads")] {
+    for l in &labels {
+        columns.push((format!("{l}_mrays"), format!("{l} Mrays/s, 1 thread")));
+    }
+    for &j in &with_c {
+        let l = &labels[j];
+        columns.push((format!("{l}_plain_c_mrays"), format!("{l} plain C")));
+    }
+    for l in &labels[1..] {
+        columns.push((format!("native_over_{l}"), format!("{}/{l}", labels[0])));
+    }
+    for &j in &with_c {
+        let l = &labels[j];
+        columns.push((
+            format!("{l}_wrapper_over_plain_c"),
+            format!("{l} wrapper/plain C"),
+        ));
+    }
+    columns.push(("rounds".to_string(), "rounds".to_string()));
+    // On one thread the all-threads columns would repeat the figures.
+    let all_threads = t > 1;
+    if all_threads {
         for l in &labels {
-            let unit = if threads == 1 {
-                "Mrays/s, 1 thread".to_string()
-            } else {
-                format!("{threads} threads")
-            };
-            columns.push((format!("{l}_mrays{key}"), format!("{l} {unit}")));
+            columns.push((format!("{l}_mrays_all_threads"), format!("{l} {t} threads")));
         }
         for l in &labels[1..] {
             columns.push((
-                format!("native_over_{l}{key}"),
-                format!("{}/{l}", labels[0]),
+                format!("native_over_{l}_all_threads"),
+                format!("{}/{l}, {t} threads", labels[0]),
             ));
         }
     }
     let mut table = Table::new(columns);
     for row in &r.traces {
         let mut cells = vec![Cell::Text(row.kind.into()), Cell::Count(row.rays as u64)];
-        for all in [false, true] {
-            let figures = if all {
-                &row.all_threads
-            } else {
-                &row.one_thread
-            };
+        cells.extend(row.one_thread.iter().map(|m| Cell::Measured(*m, 2)));
+        cells.extend(with_c.iter().map(|&j| match row.plain_c[j] {
+            Some(m) => Cell::Measured(m, 2),
+            None => Cell::Empty,
+        }));
+        cells.extend((1..labels.len()).map(|j| {
+            Cell::Ratio(row.ratio(j)).flagged(row.verdict_unsure(j).then_some(Flag::Noisy))
+        }));
+        cells.extend(with_c.iter().map(|&j| match row.wrapper_speed(j) {
+            Some(s) => Cell::Ratio(s),
+            None => Cell::Empty,
+        }));
+        cells.push(Cell::Count(row.rounds as u64));
+        if all_threads {
             // A figure on all threads below its one-thread figure is flagged.
-            cells.extend(figures.iter().enumerate().map(|(i, m)| {
-                Cell::Measured(*m, 2).flagged(
-                    (all && m.median < row.one_thread[i].median).then_some(Flag::BelowOneThread),
-                )
+            cells.extend(row.all_threads.iter().enumerate().map(|(i, m)| {
+                Cell::Measured(*m, 2)
+                    .flagged((m.median < row.one_thread[i].median).then_some(Flag::BelowOneThread))
             }));
-            cells.extend((1..labels.len()).map(|j| {
-                let ratio = if all {
-                    row.ratio_all_threads(j)
-                } else {
-                    row.ratio(j)
-                };
-                Cell::ratio_of(ratio, &row.pair(j, all))
-            }));
+            cells.extend(
+                (1..labels.len())
+                    .map(|j| Cell::ratio_of(row.ratio_all_threads(j), &row.pair(j, true))),
+            );
         }
         table.row(cells);
     }

@@ -52,7 +52,9 @@ fn quick_report_writes_every_section_and_the_headline_figures() {
         serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).unwrap())
             .expect("valid JSON");
     let scenes = json["scenes"].as_array().expect("scenes");
-    assert_eq!(scenes.len(), hybrid::report::budget::SCENES.len());
+    // Quick covers fewer scenes, with the full report's rays.
+    assert_eq!(scenes.len(), hybrid::report::budget::QUICK_SCENES.len());
+    assert_eq!(json["settings"]["rays"], 1_000_000);
     let headline = json["headline"].as_array().expect("headline rows");
     let row = |measure: &str| {
         headline
@@ -76,9 +78,23 @@ fn quick_report_writes_every_section_and_the_headline_figures() {
             for t in s["traces"].as_array().expect("traces") {
                 let kind = t["kind"].as_str().unwrap();
                 let n = positive(&t["native_mrays"], &format!("{name} {kind} native"));
+                // The headline compares with Embree called as plain C calls
+                // it; the wrapper's own speed is beside it.
                 let e = positive(
+                    &t[format!("{rival}_plain_c_mrays")],
+                    &format!("{name} {kind} {rival} plain C"),
+                );
+                let wrapper = positive(
                     &t[format!("{rival}_mrays")],
                     &format!("{name} {kind} {rival}"),
+                );
+                let cost = positive(
+                    &t[format!("{rival}_wrapper_over_plain_c")],
+                    &format!("{name} {kind} {rival} wrapper/plain C"),
+                );
+                assert!(
+                    (cost - wrapper / e).abs() < 1e-9,
+                    "{name} {kind}: {cost} != {wrapper}/{e}"
                 );
                 let ratio = positive(
                     &row(&format!("{kind} rays, 1 thread, vs {rival}"))[&column],
