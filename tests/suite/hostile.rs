@@ -28,7 +28,7 @@ pub(crate) struct Outcome {
 }
 
 impl Outcome {
-    fn describe(&self) -> String {
+    pub(crate) fn describe(&self) -> String {
         format!(
             "exit {:?}\nstdout:\n{}\nstderr:\n{}",
             self.code, self.stdout, self.stderr

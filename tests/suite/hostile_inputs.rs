@@ -301,3 +301,83 @@ fn a_full_stderr_is_exit_2_not_a_panic() {
     assert_eq!(status.code(), Some(2), "{status}");
     let _: PathBuf = dir;
 }
+
+#[test]
+fn ray_files_that_break_their_promise_are_refused_in_one_line() {
+    let dir = common::scratch("hostile-rays");
+    let set = dir.join("set");
+    std::fs::create_dir_all(&set).unwrap();
+    // No triangles file at all.
+    fails(&dir, &["bench", "set"], &["set/triangles.bin"]);
+    // A triangle file whose header promises more than it holds.
+    let mut tris = b"HYBTRIS1".to_vec();
+    tris.extend_from_slice(&9u32.to_le_bytes());
+    tris.extend_from_slice(&0u32.to_le_bytes());
+    tris.extend_from_slice(&(u64::MAX / 2).to_le_bytes());
+    tris.extend_from_slice(&[0u8; 36]);
+    std::fs::write(set.join("triangles.bin"), &tris).unwrap();
+    fails(&dir, &["bench", "set"], &["triangles.bin", "promises"]);
+    // A FIFO where the triangles should be.
+    std::fs::remove_file(set.join("triangles.bin")).unwrap();
+    fifo(&set, "triangles.bin");
+    fails(&dir, &["bench", "set"], &["triangles.bin"]);
+    std::fs::remove_file(set.join("triangles.bin")).unwrap();
+    // One good triangle, then a ray file of the wrong kind.
+    let mut one = b"HYBTRIS1".to_vec();
+    one.extend_from_slice(&9u32.to_le_bytes());
+    one.extend_from_slice(&0u32.to_le_bytes());
+    one.extend_from_slice(&1u64.to_le_bytes());
+    for x in [0f32, 0., 0., 1., 0., 0., 0., 1., 0.] {
+        one.extend_from_slice(&x.to_le_bytes());
+    }
+    std::fs::write(set.join("triangles.bin"), &one).unwrap();
+    std::fs::write(set.join("camera.rays"), b"not a ray file at all").unwrap();
+    fails(&dir, &["bench", "set"], &["camera.rays", "not a HYBRAYS1"]);
+    std::fs::remove_file(set.join("camera.rays")).unwrap();
+    fails(&dir, &["bench", "set"], &["no ray files"]);
+    fails(&dir, &["bench", "set", "--within", "0"], &["--within 0"]);
+    fails(
+        &dir,
+        &["bench", "set", "--min-rounds", "9", "--max-rounds", "5"],
+        &["--min-rounds 9"],
+    );
+    // An export of a scene that does not load writes nothing.
+    fails(
+        &dir,
+        &["rays", "export", "out", "missing.dae"],
+        &["missing.dae"],
+    );
+    assert!(!dir.join("out").exists(), "the export made its folder");
+}
+
+#[test]
+fn an_exported_set_replays_with_the_same_hits_on_every_backend() {
+    let dir = common::scratch("rays-export");
+    let o = run(&dir, &["rays", "export", "set", "--rays", "4000"]);
+    assert_eq!(o.code, Some(0), "{}", o.describe());
+    for kind in [
+        "camera",
+        "camera_rows",
+        "incoherent",
+        "shadow",
+        "bounce",
+        "light",
+    ] {
+        let bytes = std::fs::read(dir.join("set").join(format!("{kind}.rays"))).unwrap();
+        assert_eq!(&bytes[..8], b"HYBRAYS1", "{kind}");
+        let count = u64::from_le_bytes(bytes[16..24].try_into().unwrap());
+        assert_eq!(bytes.len() as u64, 24 + 32 * count, "{kind}");
+    }
+    let o = run(
+        &dir,
+        &["bench", "set", "--max-rounds", "3", "--min-rounds", "3"],
+    );
+    assert_eq!(o.code, Some(0), "{}", o.describe());
+    for kind in ["| camera |", "| camera rows |", "| light |", "native / "] {
+        assert!(
+            o.stdout.contains(kind),
+            "bench lacks '{kind}': {}",
+            o.stdout
+        );
+    }
+}
