@@ -215,10 +215,13 @@ pub fn section(dir: &Path, out: &Path, budget: &Budget, threads: usize) -> Resul
 fn estimators(shooter: &Shooter, out: &Path, budget: &Budget) -> Result<String, String> {
     let (glossy_spp, cornell_spp) = budget.estimator_gallery;
     let mut md = String::new();
-    for (builtin, spp, bounces, shown) in [
-        (GLOSSY, glossy_spp, 3, &ESTIMATORS[..]),
+    // What each scene's fireflies are: the text speaks of its own scene.
+    let glossy_note = "the fireflies left under MIS are edges of the light and of the box against the black outside, and the mirror sphere's small reflections of them; the speckles light sampling adds are walls lit through glossy surfaces, paths MIS finds by BSDF sampling";
+    let cornell_note = "the Cornell box is diffuse with a small ceiling light, so both estimators take the same light samples and differ only where a diffuse bounce finds the light itself, which MIS weighs against the light sample; the counts say how many pixels that changes at this sample count";
+    for (builtin, spp, bounces, shown, note) in [
+        (GLOSSY, glossy_spp, 3, &ESTIMATORS[..], glossy_note),
         // Hemisphere sampling of the default scene's small light is noise.
-        (CORNELL, cornell_spp, 5, &ESTIMATORS[1..]),
+        (CORNELL, cornell_spp, 5, &ESTIMATORS[1..], cornell_note),
     ] {
         let scene = load_builtin(builtin)?;
         let mut captions = Vec::new();
@@ -259,7 +262,7 @@ fn estimators(shooter: &Shooter, out: &Path, budget: &Budget) -> Result<String, 
             tiles.len(),
         )?;
         md += &format!(
-            "`{}` at {spp} spp, {bounces} bounces, one light sample, left to right: {}. A firefly is a pixel brighter than 10x the median of its 5x5 neighbourhood, a speckle one brighter than 2x; the fireflies left under MIS are edges of the light and of the box against the black outside, and the mirror sphere's small reflections of them; the speckles light sampling adds are walls lit through glossy surfaces, paths MIS finds by BSDF sampling.\n\n![estimators]({file})\n\n",
+            "`{}` at {spp} spp, {bounces} bounces, one light sample, left to right: {}. A firefly is a pixel brighter than 10x the median of its 5x5 neighbourhood, a speckle one brighter than 2x; {note}.\n\n![estimators]({file})\n\n",
             builtin.name,
             captions.join(", ")
         );

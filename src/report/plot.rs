@@ -146,6 +146,26 @@ fn tick(v: f64) -> String {
 }
 
 /// Least-squares slope of log y against log x.
+/// The least-squares line `y = a + b x` through `points`: `(b, a, R²)`.
+pub fn line_fit(points: &[(f64, f64)]) -> (f64, f64, f64) {
+    let n = points.len() as f64;
+    if n < 2.0 {
+        return (f64::NAN, f64::NAN, f64::NAN);
+    }
+    let mx = points.iter().map(|p| p.0).sum::<f64>() / n;
+    let my = points.iter().map(|p| p.1).sum::<f64>() / n;
+    let sxy: f64 = points.iter().map(|p| (p.0 - mx) * (p.1 - my)).sum();
+    let sxx: f64 = points.iter().map(|p| (p.0 - mx) * (p.0 - mx)).sum();
+    let syy: f64 = points.iter().map(|p| (p.1 - my) * (p.1 - my)).sum();
+    let b = sxy / sxx;
+    let r2 = if syy > 0.0 {
+        sxy * sxy / (sxx * syy)
+    } else {
+        1.0
+    };
+    (b, my - b * mx, r2)
+}
+
 pub fn loglog_slope(points: &[(f64, f64)]) -> f64 {
     let pts: Vec<(f64, f64)> = points
         .iter()

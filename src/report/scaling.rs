@@ -8,7 +8,7 @@ use glam::Vec3;
 
 use super::budget::Budget;
 use super::measure::{mrays_interleaved, time_repeats, Measured, Query};
-use super::plot::{loglog, loglog_slope, Series};
+use super::plot::{line_fit, loglog, loglog_slope, Series};
 use super::table::{Cell, Table};
 use crate::accel::config::compared;
 use crate::accel::BackendConfig;
@@ -153,20 +153,59 @@ pub fn table(s: &Scaling) -> Table {
     table
 }
 
+/// Backend `i`'s time per ray fitted two ways: as a power of n (`(slope,
+/// R²)` of ln t against ln n) and as logarithmic growth (`(ns per
+/// doubling of n, R²)` of t against log2 n), a BVH's ideal.
+pub fn trace_fits(s: &Scaling, i: usize) -> ((f64, f64), (f64, f64)) {
+    let points = |f: fn(f64) -> f64, g: fn(f64) -> f64| -> Vec<(f64, f64)> {
+        s.rows
+            .iter()
+            .map(|r| (f(r.triangles as f64), g(1e3 / r.mrays[i].median)))
+            .collect()
+    };
+    let (p, _, p2) = line_fit(&points(f64::ln, f64::ln));
+    let (l, _, l2) = line_fit(&points(f64::log2, |t| t));
+    ((p, p2), (l, l2))
+}
+
 pub fn slopes_table(s: &Scaling) -> Table {
     let mut table = Table::new([
         ("backend", "backend"),
         ("build", "build time ∝ n^"),
         ("ns_per_ray", "time per ray ∝ n^"),
+        ("power_r2", "R², power fit"),
+        ("ns_per_doubling", "ns per ray per doubling of n (log fit)"),
+        ("log_r2", "R², log fit"),
     ]);
     for (i, c) in s.compared.iter().enumerate() {
+        let ((_, p2), (l, l2)) = trace_fits(s, i);
         table.row(vec![
             Cell::Text(c.label()),
             Cell::Number(s.build_slopes[i], 2),
             Cell::Number(s.trace_slopes[i], 2),
+            Cell::Number(p2, 3),
+            Cell::Number(l, 1),
+            Cell::Number(l2, 3),
         ]);
     }
     table
+}
+
+/// What the fits say, in words: the measured exponent, and which of the
+/// two forms describes native's time per ray better.
+fn growth_text(s: &Scaling) -> String {
+    if s.rows.len() < 3 {
+        return String::new();
+    }
+    let ((p, p2), (l, l2)) = trace_fits(s, 0);
+    let better = if l2 >= p2 {
+        "logarithmic growth, a BVH's ideal, fits it at least as well as a power"
+    } else {
+        "a power of n fits it better than logarithmic growth, a BVH's ideal: on these meshes the work per ray (triangles near each ray), not only the tree's depth, grows with n"
+    };
+    format!(
+        "Native's time per ray grows as n^{p:.2} (R² {p2:.3}), or by {l:.1} ns per doubling of n (R² {l2:.3}): {better}. A build is O(n log n), a slope a little over 1."
+    )
 }
 
 /// Draws `scaling_build.svg` and `scaling_trace.svg` into `out`.
@@ -203,8 +242,9 @@ pub fn plot(s: &Scaling, out: &Path) -> Result<(), String> {
 
 pub fn markdown(s: &Scaling) -> String {
     format!(
-        "## How cost grows with scene size\n\nGenerated bumpy plates; builds on all threads (median of repeats), traces on one thread with the same rays.\n\n{}\n{}\nA BVH build is O(n log n) (slope a little over 1) and a traversal O(log n) (slope near 0).\n\n![build scaling](scaling_build.svg)\n![trace scaling](scaling_trace.svg)\n\n",
+        "## How cost grows with scene size\n\nGenerated bumpy plates; builds on all threads (median of repeats), traces on one thread with the same rays.\n\n{}\n{}\n{}\n\n![build scaling](scaling_build.svg)\n![trace scaling](scaling_trace.svg)\n\n",
         table(s).markdown(),
-        slopes_table(s).markdown()
+        slopes_table(s).markdown(),
+        growth_text(s)
     )
 }
