@@ -309,12 +309,21 @@ pub fn verdict(results: &[SceneResult], table: &Table) -> String {
         }
     }
     let (noisy, below) = (table.count(Flag::Noisy), table.count(Flag::BelowOneThread));
-    if noisy + below > 0 {
+    if noisy > 0 {
         text += &format!(
-            "Of the headline's figures, {noisy} are marked {} (a one-thread ratio whose interval, unsettled at the round cap, spans two verdicts: behind below 0.95x, even, ahead above 1.05x; or an all-threads figure whose repeats spread by more than 10%) and {below} on {threads} threads fell below their one-thread figure ({}): read those with care, or measure again.\n\n",
-            Flag::Noisy.mark(),
+            "Of the headline's figures, {noisy} are marked {} (a one-thread ratio whose interval, unsettled at the round cap, spans two verdicts: behind below 0.95x, even, ahead above 1.05x; or an all-threads figure whose repeats spread by more than 10%): read those with care, or measure again. ",
+            Flag::Noisy.mark()
+        );
+    }
+    if below > 0 {
+        text += &format!(
+            "{below} figures on {} fell below their one-thread figure ({}). ",
+            threads_text(threads),
             Flag::BelowOneThread.mark()
         );
+    }
+    if noisy + below > 0 {
+        text = text.trim_end().to_string() + "\n\n";
     }
     text
 }

@@ -18,6 +18,7 @@ use std::ffi::{c_char, c_void, CString};
 use std::marker::PhantomData;
 
 use super::library::{self, ErrorSink, RawHit};
+use super::plain_c::CFunctions;
 use super::{BuildQuality, SceneOptions};
 use crate::geom::ray::FlatRay;
 
@@ -116,21 +117,6 @@ pub unsafe trait Api: Sync + 'static {
     /// The version's `rtcIntersect1` and `rtcOccluded1` as plain C calls
     /// them, for the C driver (`plain_c.rs`).
     fn c_functions(&self) -> CFunctions;
-}
-
-/// An Embree version's single-ray functions, as C function pointers.
-#[derive(Clone, Copy, Debug)]
-pub struct CFunctions {
-    pub version: EmbreeMajor,
-    pub intersect1: *const c_void,
-    pub occluded1: *const c_void,
-}
-
-/// Which header layout the C driver uses.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum EmbreeMajor {
-    Three,
-    Four,
 }
 
 /// An Embree device.

@@ -5,8 +5,25 @@
 
 use std::ffi::c_void;
 
-use super::ffi::{CFunctions, EmbreeMajor, Handle};
 use crate::geom::ray::FlatRay;
+
+/// A committed Embree scene (`RTCScene`).
+type Handle = *mut c_void;
+
+/// An Embree version's single-ray functions, as C function pointers.
+#[derive(Clone, Copy, Debug)]
+pub struct CFunctions {
+    pub version: EmbreeMajor,
+    pub intersect1: *const c_void,
+    pub occluded1: *const c_void,
+}
+
+/// Which header layout the C driver uses.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum EmbreeMajor {
+    Three,
+    Four,
+}
 
 extern "C" {
     fn hybrid_embree3_closest(

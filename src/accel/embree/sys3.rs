@@ -5,10 +5,9 @@
 use std::ffi::{c_char, c_void};
 use std::sync::OnceLock;
 
-use super::ffi::{
-    value, Api, CFunctions, EmbreeMajor, ErrorFunction, Handle, MemoryMonitor, RawRay,
-};
+use super::ffi::{value, Api, ErrorFunction, Handle, MemoryMonitor, RawRay};
 use super::library::{self, RawHit, INVALID_GEOMETRY_ID};
+use super::plain_c::{CFunctions, EmbreeMajor};
 
 mod raw {
     #![allow(

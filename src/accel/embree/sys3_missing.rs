@@ -4,8 +4,9 @@
 
 use std::ffi::{c_char, c_void};
 
-use super::ffi::{Api, CFunctions, ErrorFunction, Handle, MemoryMonitor, RawRay};
+use super::ffi::{Api, ErrorFunction, Handle, MemoryMonitor, RawRay};
 use super::library::RawHit;
+use super::plain_c::CFunctions;
 
 /// Embree 3, absent from this build: an empty type, never constructed.
 pub enum Embree3 {}

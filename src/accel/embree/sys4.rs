@@ -15,10 +15,9 @@ use std::sync::OnceLock;
 use embree4_sys as e4;
 use libloading::os::unix::Library;
 
-use super::ffi::{
-    value, Api, CFunctions, EmbreeMajor, ErrorFunction, Handle, MemoryMonitor, RawRay,
-};
+use super::ffi::{value, Api, ErrorFunction, Handle, MemoryMonitor, RawRay};
 use super::library::{self, RawHit, INVALID_GEOMETRY_ID};
+use super::plain_c::{CFunctions, EmbreeMajor};
 
 // The enum values the safe layer passes are Embree 4's.
 const _: () = {
