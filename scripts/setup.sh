@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Installs what hybrid needs on Debian: Embree (libembree-dev: Embree 3 on
 # Debian 12, Embree 4 on Debian 13) and libclang (libclang-dev, for
-# bindgen). As root it installs them; otherwise it prints the exact command
+# bindgen), and gcc for the plain-C Embree driver. As root it installs them; otherwise it prints the exact command
 # and stops. On Debian 12, which has no Embree 4 package, it also puts the
 # Embree 4.4 that the `embreex` wheel on PyPI ships (Intel's
 # libembree4.so.4 and its libtbb.so.12) in ~/.local/lib/hybrid/embree4,
@@ -9,7 +9,7 @@
 set -euo pipefail
 
 missing=()
-for pkg in libembree-dev libclang-dev pkg-config unzip; do
+for pkg in libembree-dev libclang-dev pkg-config unzip gcc; do
   dpkg -s "$pkg" >/dev/null 2>&1 || missing+=("$pkg")
 done
 
