@@ -256,7 +256,16 @@ pub fn run(args: &SeriesArgs, raw: &[String]) -> Result<(), String> {
             )
         })?;
         if name == "scene" {
-            variant.series.render.input.scene = Some(PathBuf::from(value));
+            // Every scene loads before any renders, so a bad one fails
+            // first, not after the others' renders.
+            let input = &mut variant.series.render.input;
+            input.scene = Some(PathBuf::from(value));
+            crate::scene::collada::load_limited(
+                Path::new(value),
+                crate::scene::NormalMode::Smooth,
+                input.max_scene_mb.saturating_mul(1 << 20),
+            )
+            .map_err(|e| format!("--vary scene={value}: {e}"))?;
         }
         let settings = variant
             .series

@@ -413,8 +413,13 @@ impl Scene {
                     None => out.push((k.to_string(), 1)),
                 }
             }
+            // Kinds that are nouns take a plural ("2 emissive triangles");
+            // the adjectives ("3 lambertian", "1 area") stand as they are.
             out.iter()
-                .map(|(k, n)| format!("{n} {k}"))
+                .map(|(k, n)| {
+                    let noun = k.ends_with("triangle") || k.ends_with("sphere");
+                    format!("{n} {k}{}", if noun && *n != 1 { "s" } else { "" })
+                })
                 .collect::<Vec<_>>()
                 .join(", ")
         };

@@ -391,3 +391,61 @@ fn a_crease_angle_keeps_sharp_edges_and_smooth_curves() {
         }
     }
 }
+
+#[test]
+fn a_light_instanced_by_a_dangling_url_is_one_warning_and_left_out() {
+    let whole = collada::load_str(
+        hybrid::scene::builtin::CORNELL.text,
+        "ok.dae",
+        NormalMode::Smooth,
+    )
+    .expect("the default scene loads");
+    let text = hybrid::scene::builtin::CORNELL.text.replacen(
+        "url=\"#area-light\"",
+        "url=\"#Hemi-light\"",
+        1,
+    );
+    let scene = collada::load_str(&text, "gems.dae", NormalMode::Smooth)
+        .expect("a dangling light instance is not an error");
+    assert_eq!(
+        scene.lights.len() + 1,
+        whole.lights.len(),
+        "the light is left out"
+    );
+    let warned: Vec<&String> = scene
+        .warnings
+        .iter()
+        .filter(|w| w.contains("Hemi-light") && w.contains("left out"))
+        .collect();
+    assert_eq!(warned.len(), 1, "warnings: {:?}", scene.warnings);
+    // A dangling geometry instance is still an error.
+    assert_mentions(
+        &error_after(|t| t.replacen("url=\"#cube-mesh\"", "url=\"#no-such-mesh\"", 1)),
+        &["missing id"],
+    );
+}
+
+#[test]
+fn repeated_ids_of_one_file_are_one_warning_with_a_count() {
+    let text = hybrid::scene::builtin::CORNELL.text;
+    // Five elements whose ids repeat three times (x three times, y twice);
+    // nothing refers to them.
+    let extra = "<asset><contributor id=\"x\"/><contributor id=\"x\"/><contributor id=\"x\"/><contributor id=\"y\"/><contributor id=\"y\"/></asset>";
+    let edited = text.replacen(
+        "<library_geometries>",
+        &format!("{extra}<library_geometries>"),
+        1,
+    );
+    assert_ne!(edited, text);
+    let scene = collada::load_str(&edited, "dups.dae", NormalMode::Smooth);
+    let warnings: Vec<String> = match scene {
+        Ok(s) => s.warnings,
+        Err(e) => panic!("{e}"),
+    };
+    let repeated: Vec<&String> = warnings
+        .iter()
+        .filter(|w| w.contains("was already given"))
+        .collect();
+    assert_eq!(repeated.len(), 1, "{warnings:?}");
+    assert!(repeated[0].contains("3 in all"), "{}", repeated[0]);
+}

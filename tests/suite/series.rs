@@ -91,6 +91,17 @@ fn a_series_refuses_unknown_options_and_bad_values_before_rendering() {
         &dir,
         "--vary estimator=best",
     );
+    // A scene that does not load fails before the good one renders.
+    std::fs::write(dir.join("bad.dae"), "<COLLADA").unwrap();
+    // (fails_in_one_line also checks that nothing was written.)
+    if let Some(good) = crate::common::shared("sky/CBempty.dae") {
+        let list = format!("scene={},bad.dae", good.display());
+        fails_in_one_line(
+            &["series", "--vary", &list, "-f", "s.png"],
+            &dir,
+            "--vary scene=bad.dae",
+        );
+    }
 }
 
 /// Without a scene, the default scene's converged settings fill in what

@@ -234,20 +234,30 @@ impl<'a, 'input> Loader<'a, 'input> {
     fn new(file: &'a str, doc: &'a Document<'input>) -> Self {
         let mut builder = SceneBuilder::new(file);
         let mut ids: HashMap<&'a str, Node<'a, 'input>> = HashMap::new();
+        let mut duplicates = Vec::new();
         for n in doc.descendants().filter(|n| n.is_element()) {
             let Some(id) = n.attribute("id") else {
                 continue;
             };
             if let Some(first) = ids.insert(id, n) {
-                let line = |n: Node| doc.text_pos_at(n.range().start).row;
-                builder.warn(format!(
-                    "{file}:{}: <{}>: id '{}' was already given at line {}; references use this later one",
-                    line(n),
-                    n.tag_name().name(),
-                    crate::input::quote(id),
-                    line(first)
-                ));
+                duplicates.push((n, id, first));
             }
+        }
+        // One line for the file however many ids repeat: the first case,
+        // and the count.
+        let line = |n: Node| doc.text_pos_at(n.range().start).row;
+        if let Some(&(n, id, first)) = duplicates.first() {
+            let more = match duplicates.len() {
+                1 => String::new(),
+                k => format!(" ({} more ids repeat, {k} in all)", k - 1),
+            };
+            builder.warn(format!(
+                "{file}:{}: <{}>: id '{}' was already given at line {}; references use this later one{more}",
+                line(n),
+                n.tag_name().name(),
+                crate::input::quote(id),
+                line(first)
+            ));
         }
         Loader {
             file,
@@ -322,6 +332,13 @@ impl<'a, 'input> Loader<'a, 'input> {
             Vec4::W,
         );
         Ok(m)
+    }
+
+    /// Whether `attr` is a local reference `#id` to an id the file lacks.
+    fn dangling(&self, node: Node<'a, 'input>, attr: &str) -> bool {
+        node.attribute(attr)
+            .and_then(|v| v.strip_prefix('#'))
+            .is_some_and(|id| !self.ids.contains_key(id))
     }
 
     /// Follows a `url="#id"` or `target="#id"` attribute.
@@ -403,8 +420,15 @@ impl<'a, 'input> Loader<'a, 'input> {
                 }
                 "instance_light" => {
                     instances += 1;
-                    let light = self.reference(c, "url")?;
-                    self.load_light(light, node, world)?;
+                    // Copies of course scenes instance lights that are not
+                    // in the file; the course renders them without.
+                    match self.reference(c, "url") {
+                        Ok(light) => self.load_light(light, node, world)?,
+                        Err(e) if self.dangling(c, "url") => self
+                            .builder
+                            .warn(format!("{e}; the light is left out, as the course leaves it out")),
+                        Err(e) => return Err(e),
+                    }
                 }
                 "instance_camera" => {
                     instances += 1;
