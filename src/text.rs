@@ -10,7 +10,7 @@ use image::{Rgb, RgbImage};
 /// The colour text is set in.
 pub const INK: Rgb<u8> = Rgb([25, 25, 25]);
 /// Smallest size text shrinks to when it is wider than its space.
-const SMALLEST_PX: f32 = 8.0;
+pub const SMALLEST_PX: f32 = 8.0;
 
 pub fn font() -> FontRef<'static> {
     FontRef::try_from_slice(epaint_default_fonts::HACK_REGULAR)

@@ -6,7 +6,7 @@ use std::path::Path;
 
 use image::{Rgb, RgbImage};
 
-use crate::text::{draw_centred, font, line_height};
+use crate::text::{draw_centred, font, line_height, text_width, SMALLEST_PX};
 
 const BACKGROUND: Rgb<u8> = Rgb([255, 255, 255]);
 const GAP: u32 = 8;
@@ -17,7 +17,9 @@ const TITLE_PX: f32 = 18.0;
 
 /// A contact sheet: `tiles` in rows of `columns`, each with its caption
 /// under it, and a title line over them (none when empty). Every tile gets
-/// a cell as large as the largest; smaller ones sit at its top left.
+/// a cell as large as the largest, and as wide as the widest caption at
+/// the smallest text size, so that captions never run into their
+/// neighbours; a tile sits at the top of its cell, centred.
 pub fn sheet(
     title: &str,
     tiles: &[(RgbImage, String)],
@@ -26,9 +28,19 @@ pub fn sheet(
     if tiles.is_empty() {
         return Err("a contact sheet needs at least one image".into());
     }
-    let w = tiles.iter().map(|(t, _)| t.width()).max().unwrap_or(1);
-    let h = tiles.iter().map(|(t, _)| t.height()).max().unwrap_or(1);
     let font = font();
+    let widest_caption = tiles
+        .iter()
+        .map(|(_, text)| text_width(&font, SMALLEST_PX, text).ceil() as u32)
+        .max()
+        .unwrap_or(0);
+    let w = tiles
+        .iter()
+        .map(|(t, _)| t.width())
+        .max()
+        .unwrap_or(1)
+        .max(widest_caption);
+    let h = tiles.iter().map(|(t, _)| t.height()).max().unwrap_or(1);
     let cols = columns.max(1).min(tiles.len()) as u32;
     let rows = tiles.len().div_ceil(cols as usize) as u32;
     let caption = line_height(&font, CAPTION_PX);
@@ -47,7 +59,7 @@ pub fn sheet(
         let (c, r) = (i as u32 % cols, i as u32 / cols);
         let x = GAP + c * (w + GAP);
         let y = GAP + title_band + r * (h + caption + GAP);
-        image::imageops::replace(&mut out, img, x as i64, y as i64);
+        image::imageops::replace(&mut out, img, (x + (w - img.width()) / 2) as i64, y as i64);
         draw_centred(&mut out, &font, CAPTION_PX, text, x, w, y + h + 2);
     }
     Ok(out)
@@ -99,5 +111,22 @@ mod tests {
         assert!(long > short, "a longer caption did not cover more pixels");
         // Nothing is drawn over the (white) tiles themselves.
         assert_eq!(ink_in(&img, GAP, GAP + title_band, GAP + 120, y), 0);
+    }
+
+    #[test]
+    fn captions_wider_than_small_tiles_widen_the_cells_instead_of_overlapping() {
+        let tile = RgbImage::from_pixel(40, 30, Rgb([255, 255, 255]));
+        let text = "light sampling · 69 / 411".to_string();
+        let tiles = vec![(tile.clone(), text.clone()), (tile, text.clone())];
+        let img = sheet("", &tiles, 2).unwrap();
+        let cell = (img.width() - 3 * GAP) / 2;
+        assert!(
+            cell >= text_width(&font(), SMALLEST_PX, &text) as u32,
+            "cell {cell}"
+        );
+        // No ink in the gap between the two cells' caption bands.
+        let y = GAP + 30;
+        let gap = ink_in(&img, GAP + cell, y, 2 * GAP + cell, img.height());
+        assert_eq!(gap, 0, "captions run into the gap between cells");
     }
 }
