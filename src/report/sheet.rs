@@ -6,7 +6,7 @@ use std::path::Path;
 
 use image::{Rgb, RgbImage};
 
-use crate::text::{draw_centred, font, line_height, text_width, SMALLEST_PX};
+use crate::text::{draw_centred, fitting_px, font, line_height, text_width, SMALLEST_PX};
 
 const BACKGROUND: Rgb<u8> = Rgb([255, 255, 255]);
 const GAP: u32 = 8;
@@ -17,9 +17,9 @@ const TITLE_PX: f32 = 18.0;
 
 /// A contact sheet: `tiles` in rows of `columns`, each with its caption
 /// under it, and a title line over them (none when empty). Every tile gets
-/// a cell as large as the largest, and as wide as the widest caption at
-/// the smallest text size, so that captions never run into their
-/// neighbours; a tile sits at the top of its cell, centred.
+/// a cell as large as the largest; smaller ones sit at its top left. A
+/// caption wider than its cell at the smallest text size is broken into
+/// lines at spaces, so captions never run into their neighbours.
 pub fn sheet(
     title: &str,
     tiles: &[(RgbImage, String)],
@@ -28,22 +28,15 @@ pub fn sheet(
     if tiles.is_empty() {
         return Err("a contact sheet needs at least one image".into());
     }
-    let font = font();
-    let widest_caption = tiles
-        .iter()
-        .map(|(_, text)| text_width(&font, SMALLEST_PX, text).ceil() as u32)
-        .max()
-        .unwrap_or(0);
-    let w = tiles
-        .iter()
-        .map(|(t, _)| t.width())
-        .max()
-        .unwrap_or(1)
-        .max(widest_caption);
+    let w = tiles.iter().map(|(t, _)| t.width()).max().unwrap_or(1);
     let h = tiles.iter().map(|(t, _)| t.height()).max().unwrap_or(1);
+    let font = font();
+    let captions: Vec<Vec<String>> = tiles.iter().map(|(_, t)| lines(&font, t, w)).collect();
+    let most_lines = captions.iter().map(Vec::len).max().unwrap_or(1).max(1) as u32;
     let cols = columns.max(1).min(tiles.len()) as u32;
     let rows = tiles.len().div_ceil(cols as usize) as u32;
-    let caption = line_height(&font, CAPTION_PX);
+    let line = line_height(&font, CAPTION_PX);
+    let caption = line * most_lines;
     let title_band = if title.is_empty() {
         0
     } else {
@@ -55,14 +48,43 @@ pub fn sheet(
     if !title.is_empty() {
         draw_centred(&mut out, &font, TITLE_PX, title, GAP, width - 2 * GAP, GAP);
     }
-    for (i, (img, text)) in tiles.iter().enumerate() {
+    for (i, ((img, _), text)) in tiles.iter().zip(&captions).enumerate() {
         let (c, r) = (i as u32 % cols, i as u32 / cols);
         let x = GAP + c * (w + GAP);
         let y = GAP + title_band + r * (h + caption + GAP);
-        image::imageops::replace(&mut out, img, (x + (w - img.width()) / 2) as i64, y as i64);
-        draw_centred(&mut out, &font, CAPTION_PX, text, x, w, y + h + 2);
+        image::imageops::replace(&mut out, img, x as i64, y as i64);
+        // One size for all the lines of a caption: the largest at which
+        // each fits.
+        let px = text
+            .iter()
+            .map(|l| fitting_px(&font, CAPTION_PX, l, w))
+            .fold(CAPTION_PX, f32::min);
+        for (k, l) in text.iter().enumerate() {
+            draw_centred(&mut out, &font, px, l, x, w, y + h + 2 + k as u32 * line);
+        }
     }
     Ok(out)
+}
+
+/// `text` as lines that each fit in `width` at the smallest text size,
+/// broken at spaces (one line when it fits; a word wider than `width`
+/// keeps a line of its own).
+fn lines(font: &ab_glyph::FontRef, text: &str, width: u32) -> Vec<String> {
+    let fits = |t: &str| text_width(font, SMALLEST_PX, t) <= width as f32;
+    if fits(text) {
+        return vec![text.to_string()];
+    }
+    let mut out: Vec<String> = Vec::new();
+    for word in text.split_whitespace() {
+        match out.last_mut() {
+            Some(last) if fits(&format!("{last} {word}")) => {
+                last.push(' ');
+                last.push_str(word);
+            }
+            _ => out.push(word.to_string()),
+        }
+    }
+    out
 }
 
 /// [`sheet`], written as a PNG.
@@ -114,16 +136,18 @@ mod tests {
     }
 
     #[test]
-    fn captions_wider_than_small_tiles_widen_the_cells_instead_of_overlapping() {
+    fn captions_wider_than_small_tiles_break_into_lines_instead_of_overlapping() {
         let tile = RgbImage::from_pixel(40, 30, Rgb([255, 255, 255]));
         let text = "light sampling · 69 / 411".to_string();
         let tiles = vec![(tile.clone(), text.clone()), (tile, text.clone())];
         let img = sheet("", &tiles, 2).unwrap();
-        let cell = (img.width() - 3 * GAP) / 2;
-        assert!(
-            cell >= text_width(&font(), SMALLEST_PX, &text) as u32,
-            "cell {cell}"
+        let cell = 40;
+        assert_eq!(
+            img.width(),
+            2 * cell + 3 * GAP,
+            "cells keep the tiles' width"
         );
+        assert!(lines(&font(), &text, cell).len() > 1);
         // No ink in the gap between the two cells' caption bands.
         let y = GAP + 30;
         let gap = ink_in(&img, GAP + cell, y, 2 * GAP + cell, img.height());
