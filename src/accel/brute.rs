@@ -94,7 +94,6 @@ impl Accel for BruteForce {
             build_ms: self.build_ms,
             memory_bytes: self.triangles.len() * 36 + self.spheres.len() * 16,
             tree: None,
-            counts_tests: true,
             batch_call: "closest_hit loop",
             details: format!(
                 "no acceleration structure: every ray tests all {} primitives, Möller–Trumbore",

@@ -24,8 +24,7 @@ use crate::geom::ray::FlatRay;
 use crate::geom::{Hit, Ray};
 
 /// Per-thread counters of the work a backend did; summed at the end of a
-/// render. Backends that cannot count tests (Embree) count rays only
-/// ([`AccelStats::counts_tests`]).
+/// render. Backends that cannot count tests (Embree) count rays only.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct TraceCounters {
     pub rays: u64,
@@ -68,9 +67,6 @@ pub struct AccelStats {
     pub memory_bytes: usize,
     /// The tree's shape, where the backend can see it.
     pub tree: Option<TreeFacts>,
-    /// Whether its [`TraceCounters`] count box and primitive tests (not
-    /// only rays).
-    pub counts_tests: bool,
     /// What was built, in words (Embree's version and ISA, build quality;
     /// the native triangle test and leaf size).
     pub details: String,

@@ -13,10 +13,12 @@ use crate::accel::config::compared;
 use crate::accel::{Backend, BackendConfig};
 use crate::geom::ray::FlatRay;
 use crate::geom::Ray;
-use crate::report::measure::ray_sets;
 pub use crate::report::measure::Settle;
+use crate::report::measure::{ray_sets, RAY_KINDS};
 pub use crate::report::paired::{compare, table, PairedRow};
-use crate::scene::{Scene, TriangleMesh};
+use crate::scene::builder::SceneBuilder;
+use crate::scene::{Material, NormalMode, Scene};
+use glam::Vec3;
 
 /// The file of a ray kind: `camera rows` -> `camera_rows.rays`.
 pub fn file_name(kind: &str) -> String {
@@ -25,16 +27,6 @@ pub fn file_name(kind: &str) -> String {
 
 /// The triangles file's name.
 pub const TRIANGLES: &str = "triangles.bin";
-
-/// The ray kinds exported, in the report's order.
-pub const KINDS: [&str; 6] = [
-    "camera",
-    "camera rows",
-    "incoherent",
-    "shadow",
-    "bounce",
-    "light",
-];
 
 /// What an export wrote.
 pub struct Exported {
@@ -76,26 +68,21 @@ pub fn export(scene: &Scene, dir: &Path, n: usize) -> Result<Exported, String> {
     })
 }
 
-/// The scene of a triangles file: one mesh, one default material.
+/// The scene of a triangles file: one mesh of the default material, built
+/// as every scene is (its coordinates are already in range, so nothing is
+/// rescaled).
 pub fn scene_of(triangles: &[[f32; 9]], name: &str) -> Scene {
-    let mut mesh = TriangleMesh::default();
-    for t in triangles {
-        let base = mesh.positions.len() as u32;
-        for c in 0..3 {
-            mesh.positions
-                .push(glam::Vec3::new(t[3 * c], t[3 * c + 1], t[3 * c + 2]));
-        }
-        mesh.indices.push([base, base + 1, base + 2]);
-        mesh.materials.push(0);
-    }
-    let mut scene = Scene {
-        name: name.to_string(),
-        mesh,
-        normal_mode: crate::scene::NormalMode::Flat,
-        ..Scene::default()
-    };
-    scene.framing_bounds = scene.bounds();
-    scene
+    let positions: Vec<Vec3> = triangles
+        .iter()
+        .flat_map(|t| (0..3).map(move |c| Vec3::new(t[3 * c], t[3 * c + 1], t[3 * c + 2])))
+        .collect();
+    let faces: Vec<[u32; 3]> = (0..triangles.len() as u32)
+        .map(|i| [3 * i, 3 * i + 1, 3 * i + 2])
+        .collect();
+    let mut builder = SceneBuilder::new(name);
+    let material = builder.material(Material::DEFAULT);
+    builder.mesh(&positions, &faces, material);
+    builder.finish(NormalMode::Flat)
 }
 
 /// Replays every ray set in `dir` on every compared backend, one thread,
@@ -109,7 +96,7 @@ pub fn replay(dir: &Path, settle: Settle) -> Result<Vec<PairedRow>, String> {
         .collect::<Result<Vec<_>, crate::accel::AccelError>>()
         .map_err(|e| e.to_string())?;
     let mut rows = Vec::new();
-    for kind in KINDS {
+    for kind in RAY_KINDS {
         let path = dir.join(file_name(kind));
         if !path.exists() {
             continue;

@@ -388,7 +388,8 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
         c.rays,
         result.mrays_per_second()
     );
-    if result.counts_tests && c.rays > 0 {
+    // Backends that count tests (not Embree) report them.
+    if c.box_tests + c.prim_tests > 0 {
         line += &format!(
             ", {:.1} box tests and {:.1} primitive tests per ray",
             c.box_tests as f64 / c.rays as f64,

@@ -112,9 +112,6 @@ impl Default for RenderSettings {
 pub struct RenderOutput {
     pub film: Film,
     pub counters: TraceCounters,
-    /// Whether `counters` include box and primitive tests (the backend's
-    /// [`crate::accel::AccelStats::counts_tests`]).
-    pub counts_tests: bool,
     pub seconds: f64,
 }
 
@@ -232,12 +229,10 @@ fn render_rows<A: Accel>(
             a += b;
             a
         });
-    let seconds = start.elapsed().as_secs_f64();
     RenderOutput {
         film,
         counters: totals,
-        counts_tests: accel.stats().counts_tests,
-        seconds,
+        seconds: start.elapsed().as_secs_f64(),
     }
 }
 

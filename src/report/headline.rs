@@ -3,7 +3,7 @@
 //! rendered frame, on one thread and on all threads. Read from the
 //! per-scene rows.
 
-use super::scenes::{BuildRow, SceneResult};
+use super::scenes::{BuildRow, SceneResult, Verdict, BEHIND};
 use super::table::{Cell, Flag, Table};
 use crate::accel::BackendConfig;
 
@@ -184,15 +184,7 @@ fn one_thread_ratios(r: &SceneResult, j: usize) -> Vec<(String, f64)> {
 /// rows) changes what native against backend `j` reads as: ahead (above
 /// 1.05x), even, or behind (below [`BEHIND`]).
 fn camera_order(meshes: &[&SceneResult], j: usize) -> String {
-    let class = |v: f64| {
-        if v > 1.05 {
-            "ahead"
-        } else if v < BEHIND {
-            "behind"
-        } else {
-            "even"
-        }
-    };
+    let class = Verdict::of;
     let ratio =
         |r: &SceneResult, kind: &str| r.traces.iter().find(|t| t.kind == kind).map(|t| t.ratio(j));
     let changed: Vec<String> = meshes
@@ -224,10 +216,6 @@ fn range(values: &[f64]) -> String {
         format!("{lo:.2}–{hi:.2}x")
     }
 }
-
-/// Ratios below this are where native is said to fall behind (within 5%
-/// the two are called even).
-const BEHIND: f64 = 0.95;
 
 /// The report's opening paragraph: what the headline table says, in words,
 /// from the measured ratios (greater than 1: native is faster).

@@ -306,6 +306,17 @@ pub struct RaySet {
     pub rays: Vec<Ray>,
 }
 
+/// The ray kinds of [`ray_sets`], in its order (the files of `hybrid rays
+/// export` are named after them).
+pub const RAY_KINDS: [&str; 6] = [
+    "camera",
+    "camera rows",
+    "incoherent",
+    "shadow",
+    "bounce",
+    "light",
+];
+
 /// The ray kinds the report and the benches trace, about `n` each:
 /// - `camera`: jittered pinhole rays in tile order over the framed scene
 ///   (as the renderer traces them);
@@ -322,32 +333,32 @@ pub struct RaySet {
 pub fn ray_sets<A: Accel>(scene: &Scene, finder: &A, n: usize) -> Vec<RaySet> {
     vec![
         RaySet {
-            kind: "camera",
+            kind: RAY_KINDS[0],
             query: Query::Closest,
             rays: rays::camera_rays(scene, n, 1),
         },
         RaySet {
-            kind: "camera rows",
+            kind: RAY_KINDS[1],
             query: Query::Closest,
             rays: rays::camera_rays_in(scene, n, 1, rays::CameraOrder::Rows),
         },
         RaySet {
-            kind: "incoherent",
+            kind: RAY_KINDS[2],
             query: Query::Closest,
             rays: rays::incoherent_rays(scene, n, 5),
         },
         RaySet {
-            kind: "shadow",
+            kind: RAY_KINDS[3],
             query: Query::Occluded,
             rays: rays::occlusion_rays(scene, n, 5),
         },
         RaySet {
-            kind: "bounce",
+            kind: RAY_KINDS[4],
             query: Query::Closest,
             rays: rays::bounce_rays(scene, finder, n, 3),
         },
         RaySet {
-            kind: "light",
+            kind: RAY_KINDS[5],
             query: Query::Occluded,
             rays: rays::shadow_rays(scene, finder, n, 2),
         },

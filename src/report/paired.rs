@@ -11,18 +11,42 @@ use crate::accel::Accel;
 use crate::geom::ray::FlatRay;
 use crate::geom::Ray;
 
+/// One timed run: a backend through its `Accel`, or its library called as
+/// plain C.
+#[derive(Clone, Debug)]
+pub struct Run {
+    pub name: String,
+    /// Index of the backend in the list given to [`compare`].
+    pub backend: usize,
+    pub plain_c: bool,
+    /// Mrays/s by thread CPU time, and by wall time.
+    pub cpu: Measured,
+    pub wall: Measured,
+}
+
 /// One replayed ray set.
 pub struct PairedRow {
     pub kind: String,
     pub rays: usize,
     /// Rays that hit (closest hit) or are blocked (occlusion), by native.
     pub hits: usize,
-    /// Per run (native first): its name and Mrays/s by thread CPU time and
-    /// by wall time.
-    pub runs: Vec<(String, Measured, Measured)>,
+    /// Native first; each plain-C run just before its backend's own.
+    pub runs: Vec<Run>,
     pub rounds: usize,
     pub settled: bool,
     pub widest: f64,
+}
+
+impl PairedRow {
+    /// Backend `b` through its `Accel`.
+    pub fn own(&self, b: usize) -> Option<&Run> {
+        self.runs.iter().find(|r| r.backend == b && !r.plain_c)
+    }
+
+    /// Backend `b`'s library called as plain C, where it has one.
+    pub fn plain_c(&self, b: usize) -> Option<&Run> {
+        self.runs.iter().find(|r| r.backend == b && r.plain_c)
+    }
 }
 
 /// Times `flat` on each backend (native first), and as a plain C caller
@@ -37,36 +61,43 @@ pub fn compare<A: Accel>(
 ) -> PairedRow {
     let rays: Vec<Ray> = flat.iter().map(Ray::from_flat).collect();
     let occluded = query == Query::Occluded;
-    // (name, backend, as a C caller)
-    let mut runs: Vec<(String, &A, bool)> = Vec::new();
-    for &(ref label, accel) in backends {
+    // (name, backend index, as a C caller)
+    let mut runs: Vec<(String, usize, bool)> = Vec::new();
+    for (b, (label, accel)) in backends.iter().enumerate() {
         if accel.trace_as_c_caller(&[], occluded).is_some() {
-            runs.push((format!("{label} plain C"), accel, true));
+            runs.push((format!("{label} plain C"), b, true));
         }
-        runs.push((label.clone(), accel, false));
+        runs.push((label.clone(), b, false));
     }
+    // Run 0 is native's own; its answers are the row's hit count.
+    let mut hits = 0;
     let timed = time_settled(runs.len(), settle, |i| {
-        let (_, accel, c) = runs[i];
-        let hits = if c {
+        let (_, b, c) = runs[i];
+        let accel = backends[b].1;
+        let n = if c {
             accel.trace_as_c_caller(flat, occluded).unwrap_or(0)
         } else {
             trace_all(accel, &rays, query, 1)
         };
-        std::hint::black_box(hits);
+        if i == 0 {
+            hits = n;
+        }
+        std::hint::black_box(n);
     });
+    let rate = |m: &Measured| Measured::per_second_millions(flat.len(), m);
     PairedRow {
         kind: kind.to_string(),
         rays: flat.len(),
-        hits: trace_all(backends[0].1, &rays, query, 1),
+        hits,
         runs: runs
-            .iter()
+            .into_iter()
             .enumerate()
-            .map(|(i, (name, _, _))| {
-                (
-                    name.clone(),
-                    Measured::per_second_millions(flat.len(), &timed.cpu[i]),
-                    Measured::per_second_millions(flat.len(), &timed.wall[i]),
-                )
+            .map(|(i, (name, backend, plain_c))| Run {
+                name,
+                backend,
+                plain_c,
+                cpu: rate(&timed.cpu[i]),
+                wall: rate(&timed.wall[i]),
             })
             .collect(),
         rounds: timed.rounds,
@@ -79,32 +110,32 @@ pub fn compare<A: Accel>(
 /// plain-C Embree, each wrapper over its plain C, and how the timing
 /// settled.
 pub fn table(rows: &[PairedRow]) -> Table {
-    let names: Vec<String> = rows
-        .first()
-        .map(|r| r.runs.iter().map(|(n, _, _)| n.clone()).collect())
-        .unwrap_or_default();
-    let key = |n: &str| n.replace([' ', '(', ')'], "_");
+    let Some(first) = rows.first() else {
+        return Table::new([("kind", "rays")]);
+    };
+    let key = |n: &str| n.replace(' ', "_");
     let mut columns: Vec<(String, String)> = vec![
         ("kind".into(), "rays".into()),
         ("rays".into(), "count".into()),
         ("hits".into(), "hits".into()),
     ];
-    for n in &names {
-        columns.push((format!("{}_mrays", key(n)), format!("{n} Mrays/s")));
-    }
-    let plain: Vec<usize> = (0..names.len())
-        .filter(|&i| names[i].ends_with(" plain C"))
-        .collect();
-    for &i in &plain {
+    for run in &first.runs {
         columns.push((
-            format!("native_over_{}", key(&names[i])),
-            format!("native / {}", names[i]),
+            format!("{}_mrays", key(&run.name)),
+            format!("{} Mrays/s", run.name),
+        ));
+    }
+    let plain: Vec<&Run> = first.runs.iter().filter(|r| r.plain_c).collect();
+    for run in &plain {
+        columns.push((
+            format!("native_over_{}", key(&run.name)),
+            format!("native / {}", run.name),
         ));
         columns.push((
-            format!("wrapper_over_{}", key(&names[i])),
+            format!("wrapper_over_{}", key(&run.name)),
             format!(
                 "{} wrapper / plain C",
-                names[i].trim_end_matches(" plain C")
+                first.own(run.backend).map_or("", |r| &r.name)
             ),
         ));
     }
@@ -112,18 +143,18 @@ pub fn table(rows: &[PairedRow]) -> Table {
     columns.push(("interval".into(), "ratio interval".into()));
     let mut table = Table::new(columns);
     for r in rows {
-        let mrays = |i: usize| r.runs[i].1;
         let mut cells = vec![
             Cell::Text(r.kind.clone()),
             Cell::Count(r.rays as u64),
             Cell::Count(r.hits as u64),
         ];
-        cells.extend((0..r.runs.len()).map(|i| Cell::Measured(mrays(i), 2)));
+        cells.extend(r.runs.iter().map(|run| Cell::Measured(run.cpu, 2)));
         let unsettled = (!r.settled).then_some(Flag::Noisy);
-        for &i in &plain {
-            cells.push(Cell::Ratio(mrays(0).median / mrays(i).median).flagged(unsettled));
-            // The wrapper's run follows its plain-C run.
-            cells.push(Cell::Ratio(mrays(i + 1).median / mrays(i).median).flagged(unsettled));
+        let native = r.runs[0].cpu.median;
+        for c in r.runs.iter().filter(|run| run.plain_c) {
+            let own = r.own(c.backend).map_or(f64::NAN, |o| o.cpu.median);
+            cells.push(Cell::Ratio(native / c.cpu.median).flagged(unsettled));
+            cells.push(Cell::Ratio(own / c.cpu.median).flagged(unsettled));
         }
         cells.push(Cell::Count(r.rounds as u64));
         cells.push(Cell::Text(format!("±{:.1}%", r.widest * 100.0)));

@@ -31,6 +31,32 @@ pub struct BuildRow {
     pub stats: AccelStats,
 }
 
+/// Ratios below this are where native is said to fall behind (within 5%
+/// the two are called even).
+pub const BEHIND: f64 = 0.95;
+
+/// How a native-over-backend ratio reads.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Verdict {
+    /// Below [`BEHIND`].
+    Behind,
+    Even,
+    /// Above 1.05x.
+    Ahead,
+}
+
+impl Verdict {
+    pub fn of(ratio: f64) -> Verdict {
+        if ratio < BEHIND {
+            Verdict::Behind
+        } else if ratio > 1.05 {
+            Verdict::Ahead
+        } else {
+            Verdict::Even
+        }
+    }
+}
+
 /// Throughput of the compared backends ([`compared`]) on one ray kind.
 pub struct TraceRow {
     pub kind: &'static str,
@@ -67,9 +93,9 @@ impl TraceRow {
     /// interval spans two verdicts (behind below 0.95x, even, ahead above
     /// 1.05x): the one case its flag changes a conclusion.
     pub fn verdict_unsure(&self, j: usize) -> bool {
-        let class = |v: f64| (v >= 0.95) as u8 + (v > 1.05) as u8;
         let r = self.ratio(j);
-        !self.settled && class(r * (1.0 - self.widest)) != class(r * (1.0 + self.widest))
+        !self.settled
+            && Verdict::of(r * (1.0 - self.widest)) != Verdict::of(r * (1.0 + self.widest))
     }
 
     /// Backend `j`'s speed through hybrid's wrapper over its plain-C
@@ -206,18 +232,12 @@ pub fn measure(
             let one = on_threads(1, || {
                 compare(set.kind, set.query, &flat, &labelled, budget.settle)
             });
-            // Runs come per backend, its plain-C run (if any) first.
-            let (mut one_thread, mut plain_c) = (Vec::new(), Vec::new());
-            let mut runs = one.runs.iter().peekable();
-            while let Some((name, mrays, _)) = runs.next() {
-                if name.ends_with(" plain C") {
-                    plain_c.push(Some(*mrays));
-                    one_thread.push(runs.next().map_or(*mrays, |r| r.1));
-                } else {
-                    plain_c.push(None);
-                    one_thread.push(*mrays);
-                }
-            }
+            let one_thread: Vec<Measured> = (0..backends.len())
+                .map(|b| one.own(b).map_or(Measured::default(), |r| r.cpu))
+                .collect();
+            let plain_c = (0..backends.len())
+                .map(|b| one.plain_c(b).map(|r| r.cpu))
+                .collect();
             let all: Vec<_> = backends.iter().collect();
             TraceRow {
                 kind: set.kind,

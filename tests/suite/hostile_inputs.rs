@@ -302,6 +302,19 @@ fn a_full_stderr_is_exit_2_not_a_panic() {
     let _: PathBuf = dir;
 }
 
+/// A triangle file (docs/rays.md) whose header promises `count` records,
+/// holding `floats`.
+fn triangle_file(count: u64, floats: &[f32]) -> Vec<u8> {
+    let mut bytes = b"HYBTRIS1".to_vec();
+    bytes.extend_from_slice(&9u32.to_le_bytes());
+    bytes.extend_from_slice(&0u32.to_le_bytes());
+    bytes.extend_from_slice(&count.to_le_bytes());
+    for x in floats {
+        bytes.extend_from_slice(&x.to_le_bytes());
+    }
+    bytes
+}
+
 #[test]
 fn ray_files_that_break_their_promise_are_refused_in_one_line() {
     let dir = common::scratch("hostile-rays");
@@ -310,11 +323,7 @@ fn ray_files_that_break_their_promise_are_refused_in_one_line() {
     // No triangles file at all.
     fails(&dir, &["bench", "set"], &["set/triangles.bin"]);
     // A triangle file whose header promises more than it holds.
-    let mut tris = b"HYBTRIS1".to_vec();
-    tris.extend_from_slice(&9u32.to_le_bytes());
-    tris.extend_from_slice(&0u32.to_le_bytes());
-    tris.extend_from_slice(&(u64::MAX / 2).to_le_bytes());
-    tris.extend_from_slice(&[0u8; 36]);
+    let tris = triangle_file(u64::MAX / 2, &[0.0; 9]);
     std::fs::write(set.join("triangles.bin"), &tris).unwrap();
     fails(&dir, &["bench", "set"], &["triangles.bin", "promises"]);
     // A FIFO where the triangles should be.
@@ -323,13 +332,7 @@ fn ray_files_that_break_their_promise_are_refused_in_one_line() {
     fails(&dir, &["bench", "set"], &["triangles.bin"]);
     std::fs::remove_file(set.join("triangles.bin")).unwrap();
     // One good triangle, then a ray file of the wrong kind.
-    let mut one = b"HYBTRIS1".to_vec();
-    one.extend_from_slice(&9u32.to_le_bytes());
-    one.extend_from_slice(&0u32.to_le_bytes());
-    one.extend_from_slice(&1u64.to_le_bytes());
-    for x in [0f32, 0., 0., 1., 0., 0., 0., 1., 0.] {
-        one.extend_from_slice(&x.to_le_bytes());
-    }
+    let one = triangle_file(1, &[0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0]);
     std::fs::write(set.join("triangles.bin"), &one).unwrap();
     std::fs::write(set.join("camera.rays"), b"not a ray file at all").unwrap();
     fails(&dir, &["bench", "set"], &["camera.rays", "not a HYBRAYS1"]);

@@ -308,7 +308,6 @@ impl<V: Version> Accel for EmbreeAccel<'_, V> {
             build_ms: self.build_ms,
             memory_bytes: self.device.memory_bytes(),
             tree: None,
-            counts_tests: false,
             batch_call: V::BATCH_CALL,
             details: self.description(),
         }

@@ -498,7 +498,6 @@ impl Accel for NativeBvh {
                 depth: self.shape.depth,
                 sah_cost: self.shape.sah_cost,
             }),
-            counts_tests: true,
             batch_call: "closest_hit loop",
             details: format!(
                 "{} triangles, {} build, max leaf {}, 8-wide {} traversal",
