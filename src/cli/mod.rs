@@ -238,6 +238,23 @@ pub fn choice<T: Choice + Send + Sync>() -> impl TypedValueParser<Value = T> {
         .try_map(|name| T::from_name(&name).ok_or_else(|| format!("unknown value '{name}'")))
 }
 
+/// A time as the log lines and captions show it, to three significant
+/// digits: `0.412 ms`, `12.3 ms`, `1.23 s`, `123 s`.
+pub fn duration(seconds: f64) -> String {
+    let (value, unit) = if seconds < 1.0 {
+        (seconds * 1e3, "ms")
+    } else {
+        (seconds, "s")
+    };
+    let decimals = match value {
+        v if v < 1.0 => 3,
+        v if v < 10.0 => 2,
+        v if v < 100.0 => 1,
+        _ => 0,
+    };
+    format!("{value:.decimals$} {unit}")
+}
+
 /// The scene argument shared by `render` and `parity`.
 #[derive(clap::Args, Debug, Clone)]
 pub struct SceneInput {
@@ -271,5 +288,23 @@ pub fn shared_scenes_dir() -> PathBuf {
     match std::env::var_os("HYBRID_SCENES") {
         Some(d) => PathBuf::from(d),
         None => Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/scenes"),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn durations_keep_three_significant_digits() {
+        let cases = [
+            (0.000412, "0.412 ms"),
+            (0.0123, "12.3 ms"),
+            (0.123, "123 ms"),
+            (1.234, "1.23 s"),
+            (12.34, "12.3 s"),
+            (123.4, "123 s"),
+        ];
+        for (seconds, shown) in cases {
+            assert_eq!(super::duration(seconds), shown, "{seconds} s");
+        }
     }
 }

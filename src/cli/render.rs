@@ -14,7 +14,7 @@ use crate::accel::native::NativeOptions;
 use crate::accel::{Accel, BackendConfig};
 use crate::choice::Choice;
 use crate::render::camera::CameraMode;
-use crate::render::film::{check_writable, rate_path, write_files, ToneMap};
+use crate::render::film::{check_writable, rate_path, write_files, Exposure, Film, ToneMap};
 use crate::render::integrator::{Background, BounceView, DirectEstimator};
 use crate::render::{render, Progress, RenderOutput, RenderSettings};
 use crate::scene::environment::{EnvSampling, Environment};
@@ -152,6 +152,35 @@ pub struct RenderArgs {
     /// runs the AVX2 one.
     #[arg(long)]
     pub scalar: bool,
+    /// Exposure of the PNG (and a series' tiles) in stops, radiance times
+    /// 2^EV before the tone map, or `auto`: each image's mean brought to
+    /// mid grey (the EV is printed, and shown under a series' tiles). EXR
+    /// keeps the radiance as it is.
+    #[arg(long, value_name = "EV|auto", allow_hyphen_values = true, value_parser = exposure_arg)]
+    pub exposure: Option<ExposureArg>,
+}
+
+/// `--exposure`: fixed stops, or by each image's mean.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum ExposureArg {
+    Stops(Exposure),
+    Auto,
+}
+
+fn exposure_arg(text: &str) -> Result<ExposureArg, String> {
+    if text == "auto" {
+        return Ok(ExposureArg::Auto);
+    }
+    text.parse::<f64>()
+        .ok()
+        .and_then(Exposure::stops)
+        .map(ExposureArg::Stops)
+        .ok_or_else(|| {
+            format!(
+                "expected a number of stops within ±{} or 'auto'",
+                Exposure::LIMIT
+            )
+        })
 }
 
 /// What `hybrid render` with no scene renders unless told otherwise: the
@@ -243,13 +272,17 @@ impl RenderArgs {
         }
     }
 
-    /// PNG tone map: the reference renders' for radiance, none for normals.
-    pub fn tone_map(&self) -> ToneMap {
+    /// PNG tone map of `film`: the reference renders', exposed as
+    /// `--exposure` says, for radiance; none for normals.
+    pub fn tone_map(&self, film: &Film) -> ToneMap {
         if self.normals {
-            ToneMap::Identity
-        } else {
-            ToneMap::Reference
+            return ToneMap::Identity;
         }
+        ToneMap::Reference(match self.exposure {
+            None => Exposure::NONE,
+            Some(ExposureArg::Stops(e)) => e,
+            Some(ExposureArg::Auto) => Exposure::by_mean(&film.pixels),
+        })
     }
 
     fn output_path(&self) -> PathBuf {
@@ -360,11 +393,12 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
             crate::scene::builtin::CORNELL.name
         );
     }
-    let result = render_with(args, &settings)?;
-    let image = result
-        .film
-        .file(&output, args.tone_map())
-        .map_err(|e| e.to_string())?;
+    let result = render_with(args, &settings)?.output;
+    let map = args.tone_map(&result.film);
+    if let (Some(ExposureArg::Auto), ToneMap::Reference(e)) = (args.exposure, map) {
+        say!("exposure by the image's mean: {}", e.label());
+    }
+    let image = result.film.file(&output, map).map_err(|e| e.to_string())?;
     let c = result.counters;
     let frame = match settings.cell {
         Some(cell) => format!(
@@ -383,8 +417,8 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
         (None, None) => format!("{} spp", settings.samples),
     };
     let mut line = format!(
-        "rendered {frame} at {samples} in {:.2} s: {} rays, {:.2} Mrays/s",
-        result.seconds,
+        "rendered {frame} at {samples} in {}: {} rays, {:.2} Mrays/s",
+        super::duration(result.seconds),
         c.rays,
         result.mrays_per_second()
     );
@@ -411,10 +445,19 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
     Ok(())
 }
 
+/// A render and the work before it: what a series' captions and tables
+/// show.
+pub struct Rendered {
+    pub output: RenderOutput,
+    /// The acceleration structure's build, wall clock.
+    pub build_seconds: f64,
+    pub triangles: usize,
+}
+
 /// Loads the scene, builds the backend and renders as `args` and
 /// `settings` say, printing the scene summary, the build and a progress
 /// bar; writes nothing but the camera file (`--save-camera`).
-pub fn render_with(args: &RenderArgs, settings: &RenderSettings) -> Result<RenderOutput, String> {
+pub fn render_with(args: &RenderArgs, settings: &RenderSettings) -> Result<Rendered, String> {
     let normal_mode = if args.flat {
         NormalMode::Flat
     } else {
@@ -463,8 +506,12 @@ pub fn render_with(args: &RenderArgs, settings: &RenderSettings) -> Result<Rende
     }
 
     let bar = Bar::new(settings);
-    let result = render(&scene, &accel, settings, &bar);
+    let output = render(&scene, &accel, settings, &bar);
     bar.bar.finish_and_clear();
 
-    Ok(result)
+    Ok(Rendered {
+        output,
+        build_seconds: stats.build_ms / 1e3,
+        triangles: scene.triangle_count(),
+    })
 }

@@ -7,8 +7,8 @@ use std::path::{Path, PathBuf};
 
 use clap::{Args, Parser};
 
-use super::render::{render_with, RenderArgs};
-use crate::render::film::{check_writable, write_files, ImageFile};
+use super::render::{render_with, ExposureArg, RenderArgs};
+use crate::render::film::{check_writable, rate_path, write_files, ImageFile, ToneMap};
 use crate::report::gallery::image;
 use crate::report::sheet::sheet;
 
@@ -50,16 +50,21 @@ pub struct SeriesArgs {
     /// The option and its values: `l=1,4,16,64`, `m=0..5` (both ends
     /// included), `s=1,2,4,...,1024` (continued by the ratio, or the step,
     /// of the two values before `...`), `estimator=hemisphere,light`,
-    /// `accel=native,embree,none`, `scene=a.dae,b.dae`. With `-a`, each
-    /// render's sample-rate image follows it on the sheet.
-    #[arg(long, value_name = "OPTION=VALUES")]
-    pub vary: String,
-    /// Tiles per row of the contact sheet (default: up to 4).
+    /// `accel=native,embree,none`, `scene=a.dae,b.dae`. Given twice, every
+    /// pair is rendered: the first option down the sheet, the second
+    /// across (`--vary scene=a.dae,b.dae --vary accel=native,none`: the
+    /// with-and-without-BVH table). With `-a`, each render's sample-rate
+    /// image follows it on the sheet.
+    #[arg(long, value_name = "OPTION=VALUES", required = true)]
+    pub vary: Vec<String>,
+    /// Tiles per row of the contact sheet (default: up to 4; with two
+    /// options, the second one's values).
     #[arg(long, value_name = "N", value_parser = clap::value_parser!(u16).range(1..=64))]
     pub columns: Option<u16>,
     /// The render options every tile shares; `-f` names the contact sheet
     /// (default: SCENE_OPTION.png), the single images go beside it as
-    /// SHEET_VALUE.png.
+    /// SHEET_VALUE.png (SHEET_VALUE_rate.png with -a), the times as
+    /// SHEET.md and SHEET.csv.
     #[command(flatten)]
     pub render: RenderArgs,
 }
@@ -151,15 +156,6 @@ fn continued(parts: &[&str], at: usize) -> Option<Vec<String>> {
     (out.last().map(String::as_str) == Some(&format_number(end))).then_some(out)
 }
 
-/// A render time as a caption shows it: milliseconds under a second.
-fn duration(seconds: f64) -> String {
-    if seconds < 1.0 {
-        format!("{:.0} ms", seconds * 1e3)
-    } else {
-        format!("{seconds:.2} s")
-    }
-}
-
 fn format_number(v: f64) -> String {
     if v.fract() == 0.0 {
         format!("{}", v as i64)
@@ -198,24 +194,96 @@ fn fixed_options(raw: &[String], scene: Option<&Path>) -> String {
     out.join(" ")
 }
 
+/// One varied option and its values.
+struct Axis {
+    name: String,
+    values: Vec<String>,
+}
+
+impl Axis {
+    /// A value as captions and file names show it: a scene by its file
+    /// name without `.dae`.
+    fn shown<'v>(&self, value: &'v str) -> &'v str {
+        match self.name.as_str() {
+            "scene" => Path::new(value)
+                .file_name()
+                .and_then(|f| f.to_str())
+                .unwrap_or(value)
+                .trim_end_matches(".dae"),
+            _ => value,
+        }
+    }
+
+    /// The option as the title names it.
+    fn flag(&self) -> String {
+        if self.name == "scene" {
+            self.name.clone()
+        } else {
+            flag(&self.name)
+        }
+    }
+}
+
+/// The varied options: one or two, each named once, at most
+/// [`MAX_VALUES`] renders in all.
+fn axes(vary: &[String]) -> Result<Vec<Axis>, String> {
+    if vary.len() > 2 {
+        return Err("--vary: at most two options (rows and columns)".into());
+    }
+    let mut axes = Vec::new();
+    for text in vary {
+        let (name, values) = parse_vary(text)?;
+        if axes.iter().any(|a: &Axis| a.name == name) {
+            return Err(format!("--vary {text}: '{name}' is varied twice"));
+        }
+        axes.push(Axis { name, values });
+    }
+    let renders: usize = axes.iter().map(|a| a.values.len()).product();
+    if renders > MAX_VALUES {
+        return Err(format!(
+            "--vary: {renders} renders; a series takes at most {MAX_VALUES}"
+        ));
+    }
+    Ok(axes)
+}
+
+/// One render of a series: its values (one per axis), options and results.
+struct Tile {
+    values: Vec<String>,
+    render: RenderArgs,
+    settings: crate::render::RenderSettings,
+}
+
+/// What one render measured, for the sheet's captions and the tables.
+struct Timed {
+    values: Vec<String>,
+    triangles: usize,
+    build_seconds: f64,
+    render_seconds: f64,
+    mean_samples: f64,
+}
+
 pub fn run(args: &SeriesArgs, raw: &[String]) -> Result<(), String> {
-    let (name, values) = parse_vary(&args.vary)?;
-    let scene_name = match name.as_str() {
-        "scene" => "scenes".to_string(),
-        _ => args
-            .render
+    let axes = axes(&args.vary)?;
+    let varies_scene = axes.iter().any(|a| a.name == "scene");
+    let scene_name = if varies_scene {
+        "scenes".to_string()
+    } else {
+        args.render
             .input
             .scene
             .as_ref()
             .and_then(|p| p.file_name())
             .and_then(|s| s.to_str())
             .unwrap_or("cornell.dae")
-            .to_string(),
+            .to_string()
     };
+    let names: Vec<&str> = axes.iter().map(|a| a.name.as_str()).collect();
     let sheet_path = args.render.output.clone().unwrap_or_else(|| {
         PathBuf::from(format!(
-            "{}_{name}.png",
-            scene_name.trim_end_matches(".dae")
+            "{}_{}.png",
+            scene_name.trim_end_matches(".dae"),
+            names.join("_")
         ))
     });
     if sheet_path
@@ -236,85 +304,142 @@ pub fn run(args: &SeriesArgs, raw: &[String]) -> Result<(), String> {
         .and_then(|s| s.to_str())
         .unwrap_or("series")
         .to_string();
-    let single = |value: &str| {
-        sheet_path.with_file_name(format!("{stem}_{}.png", value.replace(['/', ' '], "_")))
+    let beside = |suffix: &str| sheet_path.with_file_name(format!("{stem}{suffix}"));
+    let single = |shown: &[&str]| {
+        let key: Vec<String> = shown.iter().map(|v| v.replace(['/', ' '], "_")).collect();
+        beside(&format!("_{}.png", key.join("_")))
     };
 
-    // Every value's options are checked before any render.
-    let mut variants = Vec::new();
-    for value in &values {
-        let mut argv = vec!["hybrid series".to_string()];
-        argv.extend(raw.iter().cloned());
-        if name != "scene" {
-            argv.push(flag(&name));
-            argv.push(value.clone());
-        }
-        let mut variant = Variant::try_parse_from(&argv).map_err(|e| {
-            format!(
-                "--vary {name}={value}: {}",
-                super::one_line(&e.render().to_string())
-            )
-        })?;
-        if name == "scene" {
-            // Every scene loads before any renders, so a bad one fails
-            // first, not after the others' renders.
-            let input = &mut variant.series.render.input;
-            input.scene = Some(PathBuf::from(value));
+    // Every render's options are checked, and every scene loaded, before
+    // any render, so a bad value fails first.
+    let combinations: Vec<Vec<String>> = match axes.as_slice() {
+        [a] => a.values.iter().map(|v| vec![v.clone()]).collect(),
+        [a, b] => a
+            .values
+            .iter()
+            .flat_map(|v| b.values.iter().map(move |w| vec![v.clone(), w.clone()]))
+            .collect(),
+        _ => return Err("--vary: expected one or two options".into()),
+    };
+    if varies_scene {
+        let axis = axes.iter().find(|a| a.name == "scene").expect("varied");
+        for value in &axis.values {
             crate::scene::collada::load_limited(
                 Path::new(value),
                 crate::scene::NormalMode::Smooth,
-                input.max_scene_mb.saturating_mul(1 << 20),
+                args.render.input.max_scene_mb.saturating_mul(1 << 20),
             )
             .map_err(|e| format!("--vary scene={value}: {e}"))?;
+        }
+    }
+    let mut tiles = Vec::new();
+    for values in &combinations {
+        let mut argv = vec!["hybrid series".to_string()];
+        argv.extend(raw.iter().cloned());
+        for (axis, value) in axes.iter().zip(values) {
+            if axis.name != "scene" {
+                argv.push(flag(&axis.name));
+                argv.push(value.clone());
+            }
+        }
+        let what = axes
+            .iter()
+            .zip(values)
+            .map(|(a, v)| format!("{}={v}", a.name))
+            .collect::<Vec<_>>()
+            .join(" ");
+        let mut variant = Variant::try_parse_from(&argv)
+            .map_err(|e| format!("--vary {what}: {}", super::one_line(&e.render().to_string())))?;
+        for (axis, value) in axes.iter().zip(values) {
+            if axis.name == "scene" {
+                variant.series.render.input.scene = Some(PathBuf::from(value));
+            }
         }
         let settings = variant
             .series
             .render
             .settings()
-            .map_err(|e| format!("--vary {name}={value}: {e}"))?;
-        variants.push((value.clone(), variant.series.render, settings));
+            .map_err(|e| format!("--vary {what}: {e}"))?;
+        tiles.push(Tile {
+            values: values.clone(),
+            render: variant.series.render,
+            settings,
+        });
     }
 
     // The options every value shares, warned about once.
-    if let Some((_, first, _)) = variants.first() {
-        for warning in first.warnings() {
+    if let Some(first) = tiles.first() {
+        for warning in first.render.warnings() {
             super::report_line("warning", &warning);
         }
     }
-    let mut tiles = Vec::new();
+    let mut pictures = Vec::new();
     let mut films = Vec::new();
-    for (value, render_args, settings) in &variants {
-        say!("series: {name} = {value}");
-        let out = render_with(render_args, settings)?;
-        say!("series: {name} = {value} rendered in {:.2} s", out.seconds);
-        let shown = match name.as_str() {
-            "scene" => Path::new(value)
-                .file_name()
-                .and_then(|f| f.to_str())
-                .unwrap_or(value),
-            _ => value,
+    let mut timed = Vec::new();
+    for tile in &tiles {
+        let shown: Vec<&str> = axes
+            .iter()
+            .zip(&tile.values)
+            .map(|(a, v)| a.shown(v))
+            .collect();
+        let what = axes
+            .iter()
+            .zip(&shown)
+            .map(|(a, v)| format!("{} = {v}", a.name))
+            .collect::<Vec<_>>()
+            .join(", ");
+        say!("series: {what}");
+        // With two options the title names them; a caption gives values.
+        let caption = if axes.len() == 1 {
+            what.clone()
+        } else {
+            shown.join(" · ")
         };
-        tiles.push((
-            image(&out.film, render_args.tone_map()),
-            format!("{name} = {shown} · {}", duration(out.seconds)),
+        let rendered = render_with(&tile.render, &tile.settings)?;
+        let out = &rendered.output;
+        say!(
+            "series: {what}: built in {}, rendered in {} (wall clock)",
+            super::duration(rendered.build_seconds),
+            super::duration(out.seconds)
+        );
+        let map = tile.render.tone_map(&out.film);
+        let exposure = match (tile.render.exposure, map) {
+            (Some(ExposureArg::Auto), ToneMap::Reference(e)) => format!(" · {}", e.label()),
+            _ => String::new(),
+        };
+        pictures.push((
+            image(&out.film, map),
+            format!(
+                "{caption}{exposure} · {} + {}",
+                super::duration(rendered.build_seconds),
+                super::duration(out.seconds)
+            ),
         ));
-        // Adaptive sampling: the rate image follows its render.
-        if settings.adaptive.is_some() {
-            let rate = out.film.rate_image();
-            tiles.push((rate, format!("rate · {:.0} spp mean", out.mean_samples())));
-        }
-        films.push((
-            single(shown.trim_end_matches(".dae")),
-            out.film,
-            render_args.tone_map(),
-        ));
+        let path = single(&shown);
+        // Adaptive sampling: the rate image follows its render, on the
+        // sheet and as its own file.
+        let rate = tile.settings.adaptive.is_some().then(|| {
+            pictures.push((
+                out.film.rate_image(),
+                format!("rate · {:.0} spp mean", out.mean_samples()),
+            ));
+            rate_path(&path)
+        });
+        timed.push(Timed {
+            values: shown.iter().map(|v| v.to_string()).collect(),
+            triangles: rendered.triangles,
+            build_seconds: rendered.build_seconds,
+            render_seconds: out.seconds,
+            mean_samples: out.mean_samples(),
+        });
+        films.push((path, rate, rendered.output.film, map));
     }
     let mut fixed = fixed_options(raw, args.render.input.scene.as_deref());
     // Without a scene the default scene's converged settings fill in what
     // was not given (as for `hybrid render`); the title says which.
-    let preset = variants
+    let preset = tiles
         .first()
-        .map(|(_, r, _)| r.preset_options())
+        .map(|t| t.render.preset_options())
         .unwrap_or_default();
     if !preset.is_empty() {
         say!("series: the default scene with converged settings: {preset}");
@@ -324,47 +449,131 @@ pub fn run(args: &SeriesArgs, raw: &[String]) -> Result<(), String> {
         fixed += &preset;
     }
     let title = format!(
-        "{scene_name} · {} · varying {}",
+        "{scene_name} · {} · varying {} · times: build + render, wall clock",
         if fixed.is_empty() {
             "defaults".to_string()
         } else {
             fixed
         },
-        if name == "scene" {
-            name.clone()
-        } else {
-            flag(&name)
-        }
+        axes.iter().map(Axis::flag).collect::<Vec<_>>().join(" by ")
     );
+    let per_tile = if tiles.first().is_some_and(|t| t.settings.adaptive.is_some()) {
+        2
+    } else {
+        1
+    };
     let columns = args.columns.map_or(
-        match tiles.len() {
-            n @ 0..=4 => n,
-            5 | 6 => 3,
+        match (axes.as_slice(), pictures.len()) {
+            ([_, b], _) => b.values.len() * per_tile,
+            (_, n @ 0..=4) => n,
+            (_, 5 | 6) => 3,
             _ => 4,
         },
         usize::from,
     );
-    let contact = sheet(&title, &tiles, columns)?;
+    let contact = sheet(&title, &pictures, columns)?;
+    let (markdown, csv) = tables(&axes, &timed, &title);
+    let (md_path, csv_path) = (beside(".md"), beside(".csv"));
     let mut files = Vec::new();
-    for (path, film, map) in &films {
+    for (path, rate, film, map) in &films {
         files.push((
             path.as_path(),
             film.file(path, *map).map_err(|e| e.to_string())?,
         ));
+        if let Some(rate) = rate {
+            files.push((rate.as_path(), film.rate_file()));
+        }
     }
     files.push((sheet_path.as_path(), ImageFile::Picture(&contact)));
+    files.push((md_path.as_path(), ImageFile::Text(&markdown)));
+    files.push((csv_path.as_path(), ImageFile::Text(&csv)));
     write_files(&files).map_err(|e| e.to_string())?;
     say!(
-        "wrote the contact sheet {} ({} tiles) and {}",
+        "wrote the contact sheet {} ({} tiles), the times {} and {}, and {}",
         sheet_path.display(),
-        tiles.len(),
+        pictures.len(),
+        md_path.display(),
+        csv_path.display(),
         films
             .iter()
-            .map(|(p, _, _)| p.display().to_string())
+            .flat_map(|(p, r, _, _)| std::iter::once(p).chain(r))
+            .map(|p| p.display().to_string())
             .collect::<Vec<_>>()
             .join(", ")
     );
     Ok(())
+}
+
+/// The series' times as Markdown and CSV. Markdown: one row per value of
+/// the first option (with its triangles when it is the scene), and with
+/// two options one column pair (build, render) per value of the second.
+/// CSV: one line per render.
+fn tables(axes: &[Axis], timed: &[Timed], title: &str) -> (String, String) {
+    let ms = |s: f64| format!("{:.3}", s * 1e3);
+    let mut csv = axes
+        .iter()
+        .map(|a| a.name.clone())
+        .chain(
+            ["triangles", "build_ms", "render_ms", "total_ms", "mean_spp"].map(String::from),
+        )
+        .collect::<Vec<_>>()
+        .join(",");
+    csv.push('\n');
+    for t in timed {
+        let quoted: Vec<String> = t
+            .values
+            .iter()
+            .map(|v| {
+                if v.contains([',', '"']) {
+                    format!("\"{}\"", v.replace('"', "\"\""))
+                } else {
+                    v.clone()
+                }
+            })
+            .collect();
+        csv += &format!(
+            "{},{},{},{},{},{:.2}\n",
+            quoted.join(","),
+            t.triangles,
+            ms(t.build_seconds),
+            ms(t.render_seconds),
+            ms(t.build_seconds + t.render_seconds),
+            t.mean_samples
+        );
+    }
+    let first = &axes[0];
+    let with_triangles = first.name == "scene";
+    let mut md = format!("{title}\n\n");
+    let mut header = vec![first.name.clone()];
+    if with_triangles {
+        header.push("triangles".into());
+    }
+    let columns: Vec<Option<&String>> = match axes.get(1) {
+        Some(b) => b.values.iter().map(Some).collect(),
+        None => vec![None],
+    };
+    for c in &columns {
+        let prefix = c.map_or(String::new(), |v| format!("{} = {} ", axes[1].name, axes[1].shown(v)));
+        header.push(format!("{prefix}build"));
+        header.push(format!("{prefix}render"));
+    }
+    md += &format!("| {} |\n", header.join(" | "));
+    md += &format!("|{}\n", " --- |".repeat(header.len()));
+    let time = |s: f64| super::duration(s);
+    for value in &first.values {
+        let shown = first.shown(value);
+        let row: Vec<&Timed> = timed.iter().filter(|t| t.values[0] == shown).collect();
+        let mut cells = vec![shown.to_string()];
+        if with_triangles {
+            cells.push(row.first().map_or(String::new(), |t| t.triangles.to_string()));
+        }
+        for t in &row {
+            cells.push(time(t.build_seconds));
+            cells.push(time(t.render_seconds));
+        }
+        md += &format!("| {} |\n", cells.join(" | "));
+    }
+    (md, csv)
 }
 
 #[cfg(test)]

@@ -292,10 +292,17 @@ impl RenderArgs {
             if self.environment.is_some() {
                 ignored.push("-e");
             }
+
             for flag in ignored {
                 out.push(format!(
                     "{flag} is ignored with --normals (normal shading traces camera rays only)"
                 ));
+            }
+            if self.exposure.is_some() {
+                out.push(
+                    "--exposure is ignored with --normals (normal colours are shown as they are)"
+                        .into(),
+                );
             }
         }
         if let Some(a) = &self.adaptive {

@@ -25,10 +25,70 @@ use super::Cell;
 /// How radiance becomes 8-bit colour.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum ToneMap {
-    /// The reference renders' map: `clamp((L * sqrt 2)^(1/2.2), 0, 1)`.
-    Reference,
+    /// The reference renders' map after an exposure:
+    /// `clamp((2^EV L sqrt 2)^(1/2.2), 0, 1)`.
+    Reference(Exposure),
     /// Values are display colours already (normal shading).
     Identity,
+}
+
+impl ToneMap {
+    /// The reference renders' map as they use it (no exposure).
+    pub const REFERENCE: ToneMap = ToneMap::Reference(Exposure::NONE);
+}
+
+/// An exposure in hundredths of a stop: radiance is scaled by `2^EV`
+/// before the tone map (PNG and sheets; EXR keeps the radiance as it is).
+/// Whole hundredths, so the value a part records reads back exactly.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub struct Exposure {
+    hundredths: i32,
+}
+
+impl Exposure {
+    pub const NONE: Exposure = Exposure { hundredths: 0 };
+    /// The largest exposure either way, in stops.
+    pub const LIMIT: f64 = 64.0;
+    /// Mid grey: the luminance an automatic exposure brings the mean to.
+    const MID_GREY: f64 = 0.18;
+
+    /// `stops` rounded to a hundredth, if finite and within [`Self::LIMIT`].
+    pub fn stops(stops: f64) -> Option<Exposure> {
+        (stops.is_finite() && stops.abs() <= Self::LIMIT).then(|| Exposure {
+            hundredths: (stops * 100.0).round() as i32,
+        })
+    }
+
+    /// The exposure that brings the mean luminance of `pixels` (finite
+    /// ones) to mid grey; none for a black image.
+    pub fn by_mean(pixels: &[Vec3]) -> Exposure {
+        let (sum, n) = pixels
+            .iter()
+            .filter(|p| p.is_finite())
+            .fold((0.0f64, 0usize), |(s, n), p| {
+                (s + f64::from(crate::geom::sampling::luminance(*p)), n + 1)
+            });
+        let mean = sum / n.max(1) as f64;
+        if mean > 0.0 {
+            let stops = (Self::MID_GREY / mean).log2();
+            Exposure::stops(stops.clamp(-Self::LIMIT, Self::LIMIT)).unwrap_or_default()
+        } else {
+            Exposure::NONE
+        }
+    }
+
+    pub fn ev(self) -> f64 {
+        f64::from(self.hundredths) / 100.0
+    }
+
+    fn scale(self) -> f32 {
+        (self.ev().exp2()) as f32
+    }
+
+    /// As a caption shows it: `+1.5 EV`.
+    pub fn label(self) -> String {
+        format!("{:+} EV", self.ev())
+    }
 }
 
 #[derive(Clone, Debug)]
@@ -69,7 +129,9 @@ impl Film {
 
     pub fn tone_map(value: f32, map: ToneMap) -> u8 {
         let v = match map {
-            ToneMap::Reference => (value * std::f32::consts::SQRT_2).max(0.0).powf(1.0 / 2.2),
+            ToneMap::Reference(exposure) => (value * exposure.scale() * std::f32::consts::SQRT_2)
+                .max(0.0)
+                .powf(1.0 / 2.2),
             ToneMap::Identity => value,
         };
         (v.clamp(0.0, 1.0) * 255.0 + 0.5) as u8
@@ -251,6 +313,8 @@ pub enum ImageFile<'a> {
     Rate(&'a Film),
     /// An image composed from films (a contact sheet), as PNG.
     Picture(&'a image::RgbImage),
+    /// A table written with the images (Markdown, CSV), as it is.
+    Text(&'a str),
 }
 
 impl ImageFile<'_> {
@@ -278,6 +342,7 @@ impl ImageFile<'_> {
             ImageFile::Picture(img) => img
                 .write_to(out, image::ImageFormat::Png)
                 .map_err(|e| e.to_string()),
+            ImageFile::Text(text) => out.write_all(text.as_bytes()).map_err(|e| e.to_string()),
         }
     }
 }
@@ -473,8 +538,9 @@ impl Origin {
             self.seed,
             self.adaptive.unwrap_or(0),
             match map {
-                ToneMap::Reference => "reference",
-                ToneMap::Identity => "identity",
+                ToneMap::Reference(e) if e == Exposure::NONE => "reference".to_string(),
+                ToneMap::Reference(e) => format!("reference {}", e.ev()),
+                ToneMap::Identity => "identity".to_string(),
             }
         )
     }
@@ -522,7 +588,8 @@ impl Origin {
             adaptive: u(nums("adaptive", 1)?[0]).filter(|&b| b > 0),
         };
         let map = match get("tone")?.as_slice() {
-            ["reference"] => ToneMap::Reference,
+            ["reference"] => ToneMap::REFERENCE,
+            ["reference", ev] => ToneMap::Reference(Exposure::stops(ev.parse().ok()?)?),
             ["identity"] => ToneMap::Identity,
             _ => return None,
         };

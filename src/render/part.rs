@@ -292,7 +292,7 @@ mod tests {
             adaptive: None,
         };
         let mut out = Cursor::new(Vec::new());
-        write_exr(&mut out, &film, ToneMap::Reference).unwrap();
+        write_exr(&mut out, &film, ToneMap::REFERENCE).unwrap();
         out.into_inner()
     }
 
@@ -317,10 +317,22 @@ mod tests {
     #[test]
     fn a_field_given_twice_is_not_an_attribute() {
         let o = Origin::whole(2, 2);
-        let text = o.text(ToneMap::Reference);
+        let text = o.text(ToneMap::REFERENCE);
         assert!(Origin::parse(&text).is_some(), "{text}");
         let twice = format!("frame 4 4; {text}");
         assert!(Origin::parse(&twice).is_none(), "{twice} was accepted");
+    }
+
+    #[test]
+    fn a_part_keeps_its_exposure_so_the_merged_png_has_it_too() {
+        let o = Origin::whole(2, 2);
+        for ev in [1.5, -2.25, 0.0] {
+            let map = ToneMap::Reference(super::super::film::Exposure::stops(ev).unwrap());
+            let text = o.text(map);
+            assert_eq!(Origin::parse(&text).map(|(_, m)| m), Some(map), "{text}");
+        }
+        let bad = o.text(ToneMap::REFERENCE) + " nan";
+        assert!(Origin::parse(&bad).is_none(), "{bad} was accepted");
     }
 
     #[test]

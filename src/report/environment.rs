@@ -76,8 +76,8 @@ pub fn measure(budget: &Budget, threads: usize, out: &Path) -> Result<Environmen
         let i = frame(&importance, spp, 1);
         if spp == shown {
             let tiles = [
-                (image(&u, ToneMap::Reference), "uniform".to_string()),
-                (image(&i, ToneMap::Reference), "by luminance".to_string()),
+                (image(&u, ToneMap::REFERENCE), "uniform".to_string()),
+                (image(&i, ToneMap::REFERENCE), "by luminance".to_string()),
             ];
             write_sheet(
                 &out.join("environment.png"),

@@ -82,7 +82,7 @@ pub fn section(dir: &Path, out: &Path, budget: &Budget, threads: usize) -> Resul
     let shoot = |scene: &Scene, samples: u32, settings: PathSettings| {
         shooter
             .film(scene, samples, Shading::Path(settings), None)
-            .map(|f| image(&f, ToneMap::Reference))
+            .map(|f| image(&f, ToneMap::REFERENCE))
     };
     let series = load(dir, SERIES_SCENE)?;
     let samples_scene = load(dir, SAMPLES_SCENE)?;
@@ -194,7 +194,7 @@ pub fn section(dir: &Path, out: &Path, budget: &Budget, threads: usize) -> Resul
         )?;
         let mean = film.mean_samples();
         mean_spp.push(mean);
-        adaptive.push((image(&film, ToneMap::Reference), scene_name(name)));
+        adaptive.push((image(&film, ToneMap::REFERENCE), scene_name(name)));
         adaptive.push((film.rate_image(), format!("rate · {mean:.0} spp mean")));
     }
     write_sheet(
@@ -241,7 +241,7 @@ fn estimators(shooter: &Shooter, out: &Path, budget: &Budget) -> Result<String, 
                 "{label} ({fireflies} fireflies, {speckles} speckles)"
             ));
             tiles.push((
-                image(&film, ToneMap::Reference),
+                image(&film, ToneMap::REFERENCE),
                 format!("{label} · {fireflies} / {speckles}"),
             ));
         }

@@ -37,16 +37,28 @@ pub fn sheet(
     let rows = tiles.len().div_ceil(cols as usize) as u32;
     let line = line_height(&font, CAPTION_PX);
     let caption = line * most_lines;
-    let title_band = if title.is_empty() {
+    let width = cols * w + (cols + 1) * GAP;
+    // A title wider than the sheet is broken into lines too.
+    let title_lines = if title.is_empty() {
+        Vec::new()
+    } else {
+        lines(&font, title, width - 2 * GAP)
+    };
+    let title_line = line_height(&font, TITLE_PX);
+    let title_band = if title_lines.is_empty() {
         0
     } else {
-        line_height(&font, TITLE_PX) + GAP
+        title_line * title_lines.len() as u32 + GAP
     };
-    let width = cols * w + (cols + 1) * GAP;
     let height = GAP + title_band + rows * (h + caption) + rows * GAP;
     let mut out = RgbImage::from_pixel(width, height, BACKGROUND);
-    if !title.is_empty() {
-        draw_centred(&mut out, &font, TITLE_PX, title, GAP, width - 2 * GAP, GAP);
+    let title_px = title_lines
+        .iter()
+        .map(|l| fitting_px(&font, TITLE_PX, l, width - 2 * GAP))
+        .fold(TITLE_PX, f32::min);
+    for (k, l) in title_lines.iter().enumerate() {
+        let y = GAP + k as u32 * title_line;
+        draw_centred(&mut out, &font, title_px, l, GAP, width - 2 * GAP, y);
     }
     for (i, ((img, _), text)) in tiles.iter().zip(&captions).enumerate() {
         let (c, r) = (i as u32 % cols, i as u32 / cols);

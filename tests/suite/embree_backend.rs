@@ -174,9 +174,9 @@ fn same_image_on(
     let b = render(&scene, embree, &settings, &Silent).film;
     let rmse = common::rmse(&a.pixels, &b.pixels);
     let same_byte = a
-        .to_rgb8(hybrid::render::film::ToneMap::Reference)
+        .to_rgb8(hybrid::render::film::ToneMap::REFERENCE)
         .iter()
-        .zip(b.to_rgb8(hybrid::render::film::ToneMap::Reference))
+        .zip(b.to_rgb8(hybrid::render::film::ToneMap::REFERENCE))
         .filter(|(x, y)| (**x as i32 - *y as i32).abs() <= 1)
         .count() as f64
         / (a.pixels.len() * 3) as f64;
@@ -320,7 +320,7 @@ fn the_default_render_has_no_junction_pixels_only_one_backend_darkens() {
         .map(|config| {
             let accel = config.build(&scene).expect("builds");
             let film = render(&scene, &accel, &settings, &Silent).film;
-            let rgb = film.to_rgb8(hybrid::render::film::ToneMap::Reference);
+            let rgb = film.to_rgb8(hybrid::render::film::ToneMap::REFERENCE);
             (
                 config.label(),
                 rgb.chunks(3).map(|p| [p[0], p[1], p[2]]).collect(),

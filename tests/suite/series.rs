@@ -131,3 +131,151 @@ fn a_series_of_the_default_scene_takes_its_converged_settings() {
     let out = String::from_utf8_lossy(&o.stdout);
     assert!(o.status.success() && !out.contains("converged"), "{out}");
 }
+
+/// With `-a`, every value's sample-rate image is a file of its own
+/// (`SHEET_VALUE_rate.png`, as `render -a` writes `NAME_rate.png`), and it
+/// is the rate tile of the sheet.
+#[test]
+fn an_adaptive_series_writes_each_rate_image_beside_its_render() {
+    let dir = scratch("series-rate");
+    succeeds(
+        &[
+            "series", "--vary", "s=8,32", "-a", "4", "0.2", "-r", "40", "30", "-m", "2", "-f",
+            "ad.png",
+        ],
+        &dir,
+    );
+    let sheet = image::open(dir.join("ad.png")).expect("the sheet").to_rgb8();
+    for v in ["8", "32"] {
+        let render = image::open(dir.join(format!("ad_{v}.png")))
+            .expect("the render")
+            .to_rgb8();
+        let rate = image::open(dir.join(format!("ad_{v}_rate.png")))
+            .unwrap_or_else(|e| panic!("ad_{v}_rate.png: {e}"))
+            .to_rgb8();
+        assert_eq!(render.dimensions(), (40, 30));
+        assert_eq!(
+            rate.dimensions(),
+            (40, 30 + hybrid::render::film::LEGEND_HEIGHT),
+            "the rate image of s={v}"
+        );
+        // The rate tile on the sheet is the file's image, pixel for pixel.
+        let found = (0..sheet.height() - rate.height())
+            .any(|y| (0..sheet.width() - rate.width()).any(|x| holds_at(&sheet, &rate, x, y)));
+        assert!(found, "the rate image of s={v} is not on the sheet");
+    }
+}
+
+/// Two `--vary` options render every pair, the first down the sheet and
+/// the second across, and write the times as a two-way Markdown table and
+/// a CSV (scene, triangles, build and render time per backend): the
+/// write-up's with-and-without-BVH table in one command.
+#[test]
+fn two_varied_options_make_a_grid_and_a_two_way_table_of_times() {
+    let (Some(empty), Some(bunny)) = (
+        crate::common::shared("sky/CBempty.dae"),
+        crate::common::shared("sky/bunny.dae"),
+    ) else {
+        return;
+    };
+    let dir = scratch("series-two-way");
+    let scenes = format!("scene={},{}", empty.display(), bunny.display());
+    succeeds(
+        &[
+            "series", "--normals", "--vary", &scenes, "--vary", "accel=native,none", "-r", "24",
+            "18", "-f", "bvh.png",
+        ],
+        &dir,
+    );
+    let sheet = image::open(dir.join("bvh.png")).expect("the sheet").to_rgb8();
+    // Two columns (the backends), two rows (the scenes).
+    assert_eq!(sheet.width(), 2 * 24 + 3 * 8, "sheet width");
+    for name in ["CBempty_native", "CBempty_none", "bunny_native", "bunny_none"] {
+        assert!(dir.join(format!("bvh_{name}.png")).is_file(), "{name}");
+    }
+    let csv = std::fs::read_to_string(dir.join("bvh.csv")).expect("the CSV");
+    let lines: Vec<&str> = csv.lines().collect();
+    assert_eq!(
+        lines[0], "scene,accel,triangles,build_ms,render_ms,total_ms,mean_spp",
+        "{csv}"
+    );
+    assert_eq!(lines.len(), 5, "one line per render: {csv}");
+    let triangles = |scene: &str| {
+        crate::common::load(scene)
+            .expect("loads")
+            .triangle_count()
+            .to_string()
+    };
+    for (line, (scene, accel, file)) in lines[1..].iter().zip([
+        ("CBempty", "native", "sky/CBempty.dae"),
+        ("CBempty", "none", "sky/CBempty.dae"),
+        ("bunny", "native", "sky/bunny.dae"),
+        ("bunny", "none", "sky/bunny.dae"),
+    ]) {
+        let f: Vec<&str> = line.split(',').collect();
+        assert_eq!(&f[..3], &[scene, accel, &triangles(file)], "{line}");
+        let ms: Vec<f64> = f[3..6].iter().map(|v| v.parse().expect("a time")).collect();
+        assert!(ms[1] > 0.0, "no render time: {line}");
+        assert!((ms[0] + ms[1] - ms[2]).abs() < 0.01, "total != build + render: {line}");
+        if accel == "native" {
+            assert!(ms[0] > 0.0, "the BVH's build took no time: {line}");
+        }
+    }
+    let md = std::fs::read_to_string(dir.join("bvh.md")).expect("the Markdown");
+    assert!(
+        md.contains("| scene | triangles | accel = native build | accel = native render | accel = none build | accel = none render |"),
+        "{md}"
+    );
+    assert!(md.contains(&format!("| bunny | {} |", triangles("sky/bunny.dae"))), "{md}");
+    // Three renders at most per option pair is not a limit; 65 renders is.
+    fails_in_one_line(
+        &["series", "--vary", "s=1..9", "--vary", "m=0..7", "-f", "x.png"],
+        &dir,
+        "72 renders",
+    );
+    fails_in_one_line(
+        &["series", "--vary", "s=1,2", "--vary", "s=3,4", "-f", "x.png"],
+        &dir,
+        "varied twice",
+    );
+}
+
+/// `--exposure EV` scales the PNG's radiance by 2^EV before the tone map
+/// and leaves the EXR's radiance alone; `auto` brings the mean to mid grey
+/// and says by how much; nonsense is one error line.
+#[test]
+fn exposure_brightens_the_png_only() {
+    let dir = scratch("exposure");
+    let common = ["render", "-r", "24", "18", "-s", "4", "-m", "3"];
+    let run = |extra: &[&str]| {
+        let args: Vec<&str> = common.iter().chain(extra).copied().collect();
+        let o = crate::common::hybrid(&args, &dir);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        String::from_utf8_lossy(&o.stdout).to_string()
+    };
+    run(&["-f", "plain.png"]);
+    run(&["--exposure", "2", "-f", "bright.png"]);
+    run(&["--exposure", "-3", "-f", "dark.png"]);
+    let out = run(&["--exposure", "auto", "-f", "auto.png"]);
+    assert!(out.contains("exposure by the image's mean: +"), "{out}");
+    run(&["-f", "plain.exr"]);
+    run(&["--exposure", "2", "-f", "bright.exr"]);
+    let mean = |f: &str| {
+        let img = image::open(dir.join(f)).expect(f).to_rgb8();
+        img.pixels().map(|p| f64::from(p.0[1])).sum::<f64>() / img.pixels().len() as f64
+    };
+    let (plain, bright, dark) = (mean("plain.png"), mean("bright.png"), mean("dark.png"));
+    assert!(bright > plain * 1.3 && dark < plain * 0.6, "{dark} {plain} {bright}");
+    let radiance = |f: &str| image::open(dir.join(f)).expect(f).to_rgb32f().into_raw();
+    assert_eq!(radiance("plain.exr"), radiance("bright.exr"), "the EXR changed");
+    fails_in_one_line(
+        &["render", "--exposure", "nan", "-f", "x.png"],
+        &dir,
+        "--exposure",
+    );
+    fails_in_one_line(
+        &["render", "--exposure", "100", "-f", "x.png"],
+        &dir,
+        "within ±64",
+    );
+}
