@@ -5,9 +5,14 @@
 //! Bounce bookkeeping: light that reached the camera after `k` scatterings
 //! is "bounce k" (k = 0: emitted light seen directly; k = 1: direct
 //! lighting). `-m M` keeps bounces up to M, `-o 0` only bounce M, and
-//! `--only direct|indirect` bounces 0..=1 or 2..=M. Every setting draws the
-//! same random numbers for the same path prefix, so the per-bounce images
-//! sum to the accumulated one.
+//! `--only direct|indirect` bounces 0..=1 or 2..=M. A path stops as soon as
+//! nothing it could still add is shown (past the last bounce shown), and
+//! direct lighting is skipped at vertices whose bounce is not shown; each
+//! vertex's direct lighting draws from a stream of its own, keyed by one
+//! number of the path's stream, so skipping it leaves the path's random
+//! numbers as they were. Every setting thus draws the same random numbers
+//! for the same path prefix, and the per-bounce images sum to the
+//! accumulated one.
 //!
 //! Emission found by a BSDF-sampled ray is weighted against light sampling
 //! by the power heuristic under multiple importance sampling (the default,
@@ -100,6 +105,20 @@ impl Default for PathSettings {
 }
 
 impl PathSettings {
+    /// The last bounce the image shows: paths stop there (0 when it shows
+    /// none, say `--only direct -o 0 -m 5`).
+    pub fn last_bounce(&self) -> u32 {
+        let top = match self.view {
+            BounceView::Direct => self.max_bounces.min(1),
+            _ => self.max_bounces,
+        };
+        if self.accumulate || self.counts(top) {
+            top
+        } else {
+            0
+        }
+    }
+
     #[inline]
     fn counts(&self, bounce: u32) -> bool {
         let in_range = if self.accumulate {
@@ -320,7 +339,7 @@ impl<'a, A: Accel> Integrator<'a, A> {
                     }
                 }
             }
-            if depth >= s.max_bounces {
+            if depth >= s.last_bounce() {
                 break;
             }
             // Opaque surfaces are two-sided: face the normals towards wo.
@@ -352,9 +371,10 @@ impl<'a, A: Accel> Integrator<'a, A> {
                 m,
             };
             if !is_specular(m) {
-                let direct = self.direct(&vertex, s, rng, counters);
+                let key = rng.next_u32();
                 if s.counts(depth + 1) {
-                    total += beta * direct;
+                    let mut light_rng = Rng::new(u64::from(key), u64::from(depth));
+                    total += beta * self.direct(&vertex, s, &mut light_rng, counters);
                 }
             }
             if depth >= 1 {

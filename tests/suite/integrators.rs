@@ -341,6 +341,53 @@ fn bounce_images_sum_to_the_accumulated_image() {
     );
 }
 
+/// A path stops once nothing it could still add is shown: `--only direct
+/// -m 5` traces exactly the rays of `-m 1` and makes the same image, and
+/// `-o 0 -m 3` traces no shadow rays below bounce 3 (fewer rays than the
+/// accumulated `-m 3`) while its image is still the accumulated image's
+/// bounce-3 part (checked by the bounce-sum test above).
+#[test]
+fn paths_stop_where_the_image_stops() {
+    let scene = scene_or_skip!("sky/CBspheres_lambertian.dae");
+    let render = |settings: PathSettings| {
+        run(
+            &scene,
+            24,
+            18,
+            4,
+            3,
+            Shading::Path(settings),
+            CameraMode::Canonical,
+        )
+    };
+    let one = render(path(DirectEstimator::Mis, 1));
+    let direct = render(PathSettings {
+        view: hybrid::render::integrator::BounceView::Direct,
+        ..path(DirectEstimator::Mis, 5)
+    });
+    assert_eq!(
+        direct.counters.rays, one.counters.rays,
+        "--only direct -m 5 traced {} rays, -m 1 {}",
+        direct.counters.rays, one.counters.rays
+    );
+    assert_eq!(direct.film.pixels, one.film.pixels, "the images differ");
+    let accumulated = render(path(DirectEstimator::Mis, 3));
+    let third = render(PathSettings {
+        accumulate: false,
+        ..path(DirectEstimator::Mis, 3)
+    });
+    println!(
+        "rays: -m 3 {}, -o 0 -m 3 {}",
+        accumulated.counters.rays, third.counters.rays
+    );
+    assert!(
+        (third.counters.rays as f64) < 0.9 * accumulated.counters.rays as f64,
+        "-o 0 traced {} rays, the accumulated image {}",
+        third.counters.rays,
+        accumulated.counters.rays
+    );
+}
+
 #[test]
 fn adaptive_sampling_stops_early_on_flat_background() {
     let scene = scene_or_skip!("sky/CBspheres_lambertian.dae");
