@@ -388,9 +388,21 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
     }
     let preset = args.preset_options();
     if !preset.is_empty() {
+        // The same render named in full, as it works from any folder: the
+        // scene's file by its absolute path while it is there.
+        let file = crate::scene::builtin::CORNELL
+            .file_on_disk()
+            .map(|p| {
+                let p = p.display().to_string();
+                if p.contains(char::is_whitespace) {
+                    format!("'{p}' ")
+                } else {
+                    format!("{p} ")
+                }
+            })
+            .unwrap_or_default();
         say!(
-            "the default scene with converged settings: {preset} (the same as `hybrid render {} {preset}`; a scene file gets the course's defaults)",
-            crate::scene::builtin::CORNELL.name
+            "the default scene with converged settings: {preset} (the same as `hybrid render {file}{preset}`; a scene file gets the course's defaults)"
         );
     }
     let result = render_with(args, &settings)?.output;

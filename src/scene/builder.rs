@@ -147,8 +147,15 @@ impl SceneBuilder {
         }
         if scene.lights.is_empty() {
             scene.warnings.push(format!(
-                "{}: the scene has no lights and nothing emits: path-traced images are black (--normals still shows the geometry)",
+                "{}: the scene has no lights and nothing emits: path-traced images are black unless -e MAP.exr lights it (--normals still shows the geometry)",
                 scene.name
+            ));
+        } else if scene.lights.iter().all(Light::is_dark) {
+            let kinds: Vec<&str> = scene.lights.iter().map(Light::kind).collect();
+            scene.warnings.push(format!(
+                "{}: every light emits nothing ({} of radiance 0 0 0): path-traced images are black unless -e MAP.exr lights it (a sky: cargo run --release --example sky_map -- sky.exr)",
+                scene.name,
+                kinds.join(", ")
             ));
         }
         self.add_light_rectangles();

@@ -14,6 +14,15 @@ pub struct Builtin {
 }
 
 impl Builtin {
+    /// The file this scene was compiled from, as an absolute path, if it
+    /// is still there with the same bytes (a command naming it then works
+    /// from any folder).
+    pub fn file_on_disk(&self) -> Option<std::path::PathBuf> {
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join(self.name);
+        let same = std::fs::read_to_string(&path).is_ok_and(|t| t == self.text);
+        same.then_some(path)
+    }
+
     pub fn load(&self, normals: NormalMode) -> Result<Scene, LoadError> {
         collada::load_str(self.text, self.name, normals)
     }

@@ -81,6 +81,18 @@ impl Light {
         }
     }
 
+    /// True when the light gives no light at all (all channels zero).
+    pub fn is_dark(&self) -> bool {
+        let power = match self {
+            Light::Area(l) => l.radiance,
+            Light::Point { intensity, .. } => *intensity,
+            Light::Directional { radiance, .. }
+            | Light::Sphere { radiance, .. }
+            | Light::Ambient { radiance } => *radiance,
+        };
+        power.max_element() <= 0.0
+    }
+
     /// True for lights with a delta distribution, which take one sample.
     pub fn is_delta(&self) -> bool {
         matches!(self, Light::Point { .. } | Light::Directional { .. })

@@ -100,9 +100,10 @@ fn the_default_scene_renders_converged_and_says_how() {
             .sqrt()
     };
     let (said, preset0) = run(&[], "p0.png");
+    let equivalent = format!("hybrid render {file} -s 256 -m 8 --rr 0.8");
     assert!(
-        said.contains("-s 256 -m 8 --rr 0.8") && said.contains("hybrid render dae/cornell.dae"),
-        "the preset and its command are not printed: {said}"
+        said.contains(&equivalent),
+        "the preset and its command (by the file's absolute path) are not printed: {said}"
     );
     assert!(said.contains("at 256 spp"), "{said}");
     let (_, preset1) = run(&["--seed", "1"], "p1.png");
@@ -113,6 +114,18 @@ fn the_default_scene_renders_converged_and_says_how() {
         "{said}"
     );
     assert!(said.contains("at 2 spp"), "{said}");
+    // The printed command, run from this scratch folder (not the
+    // repository), renders the same image.
+    let command = said
+        .split('`')
+        .nth(1)
+        .expect("a command in backquotes")
+        .to_string();
+    let words: Vec<&str> = command.split_whitespace().skip(2).collect();
+    let mut again = words.clone();
+    again.extend(["-s", "2"]);
+    let (_, named) = run(&again, "named.png");
+    assert!(named == few0, "`{command} -s 2` rendered another image");
     let (_, few1) = run(&["-s", "2", "--seed", "1"], "f1.png");
 
     let (said, course0) = run(&[file], "c0.png");

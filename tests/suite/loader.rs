@@ -449,3 +449,28 @@ fn repeated_ids_of_one_file_are_one_warning_with_a_count() {
     assert_eq!(repeated.len(), 1, "{warnings:?}");
     assert!(repeated[0].contains("3 in all"), "{}", repeated[0]);
 }
+
+#[test]
+fn a_scene_whose_lights_all_emit_nothing_warns_and_suggests_an_environment_map() {
+    let text = hybrid::scene::builtin::CORNELL.text;
+    // The light's colour, in its common and its area technique.
+    let dark = text.replace(
+        "<color sid=\"color\">8 8 8</color>",
+        "<color sid=\"color\">0 0 0</color>",
+    );
+    assert_ne!(dark, text);
+    let scene = collada::load_str(&dark, "unlit.dae", NormalMode::Smooth).expect("it loads");
+    let warned: Vec<&String> = scene
+        .warnings
+        .iter()
+        .filter(|w| w.contains("every light emits nothing") && w.contains("-e MAP.exr"))
+        .collect();
+    assert_eq!(warned.len(), 1, "warnings: {:?}", scene.warnings);
+    // A lit scene says nothing of the kind.
+    let lit = collada::load_str(text, "lit.dae", NormalMode::Smooth).expect("it loads");
+    assert!(
+        lit.warnings.iter().all(|w| !w.contains("emits nothing")),
+        "{:?}",
+        lit.warnings
+    );
+}
