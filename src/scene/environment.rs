@@ -4,16 +4,21 @@
 //! The mapping is the course framework's: row 0 is straight up (+Y), the
 //! polar angle grows down the rows (`theta = acos(y)`), and the column is
 //! `phi / 2 pi` with `phi = atan2(-z, x) + pi`, so the map's left edge looks
-//! towards -X, a quarter across towards +Z, the middle towards +X. Each
-//! texel is a constant radiance over its patch of directions (no
-//! filtering), which makes importance sampling exact: a texel is picked
-//! with probability proportional to luminance times its solid angle, and
-//! the direction is uniform in solid angle within the texel (uniform in
-//! `phi` and `cos theta`), so the density of a direction is the texel's
-//! luminance over the map's total power. This is the piecewise-constant 2D
+//! towards -X, a quarter across towards +Z, the middle towards +X. Texels
+//! are samples at their centres, looked up bilinearly (as pbrt-v4's image
+//! infinite light does): the radiance seen in a direction blends the four
+//! nearest texel centres, wrapping around in `phi` and held constant above
+//! the first and below the last row's centre, so a map seen directly shows
+//! no texel blocks. Importance sampling draws a texel with probability
+//! proportional to the mean luminance of the filtered map over its patch
+//! times the patch's solid angle, then a direction uniform in solid angle
+//! within it (uniform in `phi` and `cos theta`): the piecewise-constant 2D
 //! distribution of pbrt (Pharr, Jakob, Humphreys, 3rd ed. §13.6.7 and
-//! §14.2.4), laid out over `cos theta` instead of `theta` so that no
-//! `sin theta` factor is left in the estimate.
+//! §14.2.4), laid out over `cos theta` so that no `sin theta` factor is
+//! left in the density. A patch's mean is positive wherever the filtered
+//! map is, so every direction with light has a density, and the estimate
+//! is unbiased; it is no longer exact within a texel, the price of the
+//! filter.
 
 use std::f32::consts::PI;
 use std::path::Path;
@@ -63,6 +68,9 @@ pub struct Environment {
     height: u32,
     /// Row-major, row 0 at +Y.
     texels: Vec<Vec3>,
+    /// Per texel, the mean luminance of the filtered map over its patch:
+    /// what importance sampling draws by.
+    weights: Vec<f32>,
     /// Cumulative probability of picking each row.
     row_cdf: Vec<f32>,
     /// Per row, cumulative probability of each column given the row.
@@ -78,14 +86,15 @@ impl Environment {
     pub fn new(name: &str, width: u32, height: u32, texels: Vec<Vec3>) -> Environment {
         assert_eq!(texels.len(), width as usize * height as usize);
         let (w, h) = (width as usize, height as usize);
+        let weights = patch_means(&texels, w, h);
         let mut row_power = vec![0.0f64; h];
         let mut column_cdf = vec![0.0f32; w * h];
-        for (j, row) in texels.chunks_exact(w).enumerate() {
+        for (j, row) in weights.chunks_exact(w).enumerate() {
             let solid_angle = texel_solid_angle(j as u32, width, height) as f64;
             let mut acc = 0.0f64;
             let mut sums = Vec::with_capacity(w);
-            for t in row {
-                acc += luminance(*t) as f64 * solid_angle;
+            for &weight in row {
+                acc += f64::from(weight) * solid_angle;
                 sums.push(acc);
             }
             row_power[j] = acc;
@@ -107,6 +116,7 @@ impl Environment {
             width,
             height,
             texels,
+            weights,
             row_cdf,
             column_cdf,
             power: power as f32,
@@ -193,20 +203,44 @@ impl Environment {
         (self.width, self.height)
     }
 
-    /// The texel that direction `dir` (unit) sees.
+    /// Where direction `dir` (unit) lies on the map, in texels: column
+    /// and row, 0 at the left and top edges.
     #[inline]
-    fn texel_of(&self, dir: Vec3) -> usize {
+    fn map_position(&self, dir: Vec3) -> (f32, f32) {
         let theta = dir.y.clamp(-1.0, 1.0).acos();
         let phi = (-dir.z).atan2(dir.x) + PI;
-        let column = ((phi * (0.5 / PI) * self.width as f32) as u32).min(self.width - 1);
-        let row = ((theta * (1.0 / PI) * self.height as f32) as u32).min(self.height - 1);
+        (
+            phi * (0.5 / PI) * self.width as f32,
+            theta * (1.0 / PI) * self.height as f32,
+        )
+    }
+
+    /// The texel whose patch direction `dir` (unit) lies in.
+    #[inline]
+    fn texel_of(&self, dir: Vec3) -> usize {
+        let (x, y) = self.map_position(dir);
+        let column = (x as u32).min(self.width - 1);
+        let row = (y as u32).min(self.height - 1);
         (row * self.width + column) as usize
     }
 
-    /// Radiance arriving from direction `dir` (unit).
+    /// Radiance arriving from direction `dir` (unit): the texels around it
+    /// blended bilinearly by the distance to their centres.
     #[inline]
     pub fn radiance(&self, dir: Vec3) -> Vec3 {
-        self.texels[self.texel_of(dir)]
+        let (x, y) = self.map_position(dir);
+        let (x, y) = (x - 0.5, y - 0.5);
+        let (x0, y0) = (x.floor(), y.floor());
+        let (fx, fy) = (x - x0, y - y0);
+        let (w, h) = (self.width as i64, self.height as i64);
+        let column = |c: i64| c.rem_euclid(w) as usize;
+        let row = |r: i64| r.clamp(0, h - 1) as usize * w as usize;
+        let (c0, c1) = (column(x0 as i64), column(x0 as i64 + 1));
+        let (r0, r1) = (row(y0 as i64), row(y0 as i64 + 1));
+        let t = &self.texels;
+        let top = t[r0 + c0] * (1.0 - fx) + t[r0 + c1] * fx;
+        let bottom = t[r1 + c0] * (1.0 - fx) + t[r1 + c1] * fx;
+        top * (1.0 - fy) + bottom * fy
     }
 
     /// The density (solid angle) with which [`Environment::sample`] draws
@@ -222,7 +256,9 @@ impl Environment {
         let radiance = self.radiance(dir);
         let pdf = match self.sampling {
             EnvSampling::Uniform => 0.25 / PI,
-            EnvSampling::Importance if self.power > 0.0 => luminance(radiance) / self.power,
+            EnvSampling::Importance if self.power > 0.0 => {
+                self.weights[self.texel_of(dir)] / self.power
+            }
             EnvSampling::Importance => 0.0,
         };
         (radiance, pdf)
@@ -247,12 +283,37 @@ impl Environment {
                 direction(cos_theta, sin_theta, phi)
             }
         };
-        // Radiance and density are those of the texel the direction looks
-        // up, so that light sampling and BSDF-sampled rays that escape see
-        // the same function.
+        // Radiance and density come from the same lookups that rays which
+        // escape make, so light sampling and BSDF sampling see one function.
         let (radiance, pdf) = self.radiance_and_pdf(wi);
         (pdf > 0.0 && radiance != Vec3::ZERO).then_some(EnvSample { wi, radiance, pdf })
     }
+}
+
+/// The mean luminance of the bilinearly filtered map over each texel's
+/// patch. Across a patch the filter's weight on the texel before, itself
+/// and the one after falls as 1/8, 3/4 and 1/8 of the patch's width (the
+/// integrals of the tent), in each direction; rows are held at the edges
+/// and columns wrap, as the lookup does.
+fn patch_means(texels: &[Vec3], w: usize, h: usize) -> Vec<f32> {
+    const TENT: [(i64, f32); 3] = [(-1, 0.125), (0, 0.75), (1, 0.125)];
+    let lum: Vec<f32> = texels.iter().map(|t| luminance(*t)).collect();
+    let (wi, hi) = (w as i64, h as i64);
+    let mut out = vec![0.0f32; w * h];
+    for j in 0..hi {
+        for i in 0..wi {
+            let mut sum = 0.0f32;
+            for (dj, kj) in TENT {
+                let r = (j + dj).clamp(0, hi - 1) as usize;
+                for (di, ki) in TENT {
+                    let c = (i + di).rem_euclid(wi) as usize;
+                    sum += kj * ki * lum[r * w + c];
+                }
+            }
+            out[j as usize * w + i as usize] = sum;
+        }
+    }
+    out
 }
 
 /// The direction at polar angle `theta` (from +Y) and azimuth `phi`, in
@@ -344,24 +405,22 @@ mod tests {
     #[test]
     fn samples_land_in_the_texel_they_picked_with_the_density_pdf_reports() {
         // Histogram of samples over texels against each texel's share of
-        // the power, and every sample's pdf against pdf().
+        // the filtered power, and every sample's pdf against pdf().
         let env = spotty();
         let mut counts = vec![0u32; 16 * 8];
         let n = 200_000;
         let mut rng = crate::geom::sampling::Rng::new(7, 1);
         for _ in 0..n {
             let (u, v) = rng.next_2d();
-            let s = env.sample(u, v).expect("the map has light");
+            let Some(s) = env.sample(u, v) else { continue };
             assert!((s.wi.length() - 1.0).abs() < 1e-5);
             assert_eq!(s.pdf, env.pdf(s.wi));
             assert_eq!(s.radiance, env.radiance(s.wi));
             counts[env.texel_of(s.wi)] += 1;
         }
-        assert_eq!(counts[3], 0, "a black texel was sampled");
         for (i, &c) in counts.iter().enumerate() {
-            let t = env.texels[i];
             let expected =
-                luminance(t) * texel_solid_angle(i as u32 / 16, 16, 8) / env.power * n as f32;
+                env.weights[i] * texel_solid_angle(i as u32 / 16, 16, 8) / env.power * n as f32;
             let sigma = expected.sqrt().max(1.0);
             assert!(
                 (c as f32 - expected).abs() < 5.0 * sigma,
@@ -370,33 +429,106 @@ mod tests {
         }
     }
 
+    /// The direction through the centre of texel (column, row).
+    fn centre(env: &Environment, column: f32, row: f32) -> Vec3 {
+        let (w, h) = env.size();
+        let theta = PI * (row + 0.5) / h as f32;
+        let phi = 2.0 * PI * (column + 0.5) / w as f32;
+        direction(theta.cos(), theta.sin(), phi)
+    }
+
     #[test]
-    fn the_estimate_of_total_irradiance_is_exact_for_importance_and_unbiased_for_uniform() {
-        // The integral of luminance over the sphere is the map's power: with
-        // importance sampling every sample's L / pdf is that integral.
-        let mut env = spotty();
-        let mut rng = crate::geom::sampling::Rng::new(3, 2);
-        for _ in 0..1000 {
-            let (u, v) = rng.next_2d();
-            let s = env.sample(u, v).unwrap();
-            let estimate = luminance(s.radiance) / s.pdf;
-            assert!((estimate - env.power).abs() < 1e-3 * env.power);
+    fn lookups_are_bilinear_between_texel_centres_and_wrap_around() {
+        let env = spotty();
+        let t = |c: usize, r: usize| env.texels[r * 16 + c];
+        let close = |a: Vec3, b: Vec3| (a - b).abs().max_element() < 1e-3 * (1.0 + b.max_element());
+        // At a centre, the texel itself.
+        assert!(close(env.radiance(centre(&env, 5.0, 2.0)), t(5, 2)));
+        // Half way to the next centre across and down: the mean.
+        let across = env.radiance(centre(&env, 5.5, 2.0));
+        assert!(close(across, (t(5, 2) + t(6, 2)) * 0.5), "{across}");
+        let down = env.radiance(centre(&env, 5.0, 2.5));
+        assert!(close(down, (t(5, 2) + t(5, 3)) * 0.5), "{down}");
+        let quarter = env.radiance(centre(&env, 4.75, 2.0));
+        assert!(close(quarter, t(4, 2) * 0.25 + t(5, 2) * 0.75), "{quarter}");
+        // Across the seam at phi = 0: the last column blends with the first.
+        let seam = env.radiance(centre(&env, 15.5, 6.0));
+        assert!(close(seam, (t(15, 6) + t(0, 6)) * 0.5), "{seam}");
+        // Above the first row's centre the first row holds.
+        let near_pole = env.radiance(centre(&env, 3.0, -0.4));
+        assert!(close(near_pole, t(3, 0)), "{near_pole}");
+    }
+
+    /// The integral of the filtered map's luminance over the sphere, by a
+    /// fine midpoint rule in `phi` and `cos theta`.
+    fn quadrature(env: &Environment) -> f64 {
+        let (nphi, nz) = (1024, 1024);
+        let mut sum = 0.0f64;
+        for i in 0..nz {
+            let z = 1.0 - 2.0 * (i as f32 + 0.5) / nz as f32;
+            let r = (1.0 - z * z).max(0.0).sqrt();
+            for k in 0..nphi {
+                let phi = 2.0 * PI * (k as f32 + 0.5) / nphi as f32;
+                sum += luminance(env.radiance(direction(z, r, phi))) as f64;
+            }
         }
-        env.sampling = EnvSampling::Uniform;
-        let n = 400_000;
-        let mean: f64 = (0..n)
-            .filter_map(|_| {
-                let (u, v) = rng.next_2d();
-                env.sample(u, v)
-            })
-            .map(|s| (luminance(s.radiance) / s.pdf) as f64)
-            .sum::<f64>()
-            / n as f64;
+        sum * 4.0 * std::f64::consts::PI / (nphi * nz) as f64
+    }
+
+    /// Mean and standard error of luminance(L) / pdf over `n` samples.
+    fn estimate(env: &Environment, n: u32, seed: u64) -> (f64, f64) {
+        let mut rng = crate::geom::sampling::Rng::new(seed, 2);
+        let (mut sum, mut sq) = (0.0f64, 0.0f64);
+        for _ in 0..n {
+            let (u, v) = rng.next_2d();
+            let x = env
+                .sample(u, v)
+                .map_or(0.0, |s| (luminance(s.radiance) / s.pdf) as f64);
+            sum += x;
+            sq += x * x;
+        }
+        let mean = sum / n as f64;
+        let var = (sq / n as f64 - mean * mean).max(0.0);
+        (mean, (var / n as f64).sqrt())
+    }
+
+    #[test]
+    fn a_map_of_known_integral_is_estimated_without_bias_by_both_samplings() {
+        // Texels 1 + y at their centres: the filtered map stays odd in y
+        // about 1, so its integral over the sphere is exactly 4 pi.
+        let env = Environment::from_fn("1 + y", 32, 16, |d| Vec3::splat(1.0 + d.y));
+        let truth = 4.0 * std::f64::consts::PI;
+        let by_quadrature = quadrature(&env);
+        assert!((by_quadrature - truth).abs() < 1e-3 * truth, "quadrature {by_quadrature}");
+        let mut uniform = env.clone();
+        uniform.sampling = EnvSampling::Uniform;
+        for (name, env) in [("by luminance", &env), ("uniform", &uniform)] {
+            let (mean, error) = estimate(env, 200_000, 5);
+            println!("{name}: {mean:.4} ± {error:.4} (exact {truth:.4})");
+            assert!(
+                (mean - truth).abs() < 4.0 * error + 1e-4 * truth,
+                "{name}: {mean} ± {error}, exact {truth}"
+            );
+        }
+    }
+
+    #[test]
+    fn importance_sampling_a_spotty_map_is_unbiased_and_beats_uniform() {
+        let mut env = spotty();
+        let truth = quadrature(&env);
+        let (mean, error) = estimate(&env, 200_000, 9);
         assert!(
-            (mean as f32 - env.power).abs() < 0.03 * env.power,
-            "uniform mean {mean} vs power {}",
-            env.power
+            (mean - truth).abs() < 4.0 * error + 1e-3 * truth,
+            "by luminance {mean} ± {error}, quadrature {truth}"
         );
+        env.sampling = EnvSampling::Uniform;
+        let (uniform, uniform_error) = estimate(&env, 200_000, 9);
+        assert!(
+            (uniform - truth).abs() < 4.0 * uniform_error + 1e-3 * truth,
+            "uniform {uniform} ± {uniform_error}, quadrature {truth}"
+        );
+        println!("errors: by luminance {error:.4}, uniform {uniform_error:.4}");
+        assert!(error * 3.0 < uniform_error, "{error} vs {uniform_error}");
     }
 
     #[test]

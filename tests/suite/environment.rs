@@ -22,9 +22,11 @@ fn with_environment(mut scene: Scene, env: Environment) -> Scene {
     scene
 }
 
-/// A map of `colour` over the whole sphere (or only above the horizon).
+/// A map of `colour` over the whole sphere (or only above the horizon:
+/// fine enough that the lookup's blend across the horizon, half a row
+/// each way, is a fraction of a degree).
 fn constant_map(colour: Vec3, above_horizon_only: bool) -> Environment {
-    let (w, h) = (8u32, 4u32);
+    let (w, h) = (512u32, 256u32);
     let texels = (0..w * h)
         .map(|i| {
             if above_horizon_only && i / w >= h / 2 {
