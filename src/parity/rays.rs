@@ -9,7 +9,7 @@ pub use crate::geom::sampling::uniform_sphere;
 use crate::geom::sampling::{cosine_hemisphere, Frame, Rng};
 use crate::geom::Ray;
 use crate::render::camera::{Camera, CameraMode};
-use crate::render::light::sample_li;
+use crate::render::light::{sample_li, Facing};
 use crate::scene::Scene;
 
 /// The order camera rays come in.
@@ -143,7 +143,7 @@ pub fn shadow_rays<A: Accel>(scene: &Scene, reference: &A, n: usize, seed: u64) 
         .into_iter()
         .filter_map(|at| {
             let light = &scene.lights[(rng.next_u32() as usize) % scene.lights.len()];
-            let ls = sample_li(light, at.p, at.ng, &mut rng)?;
+            let ls = sample_li(light, at.p, Facing::geometric(at.ng), &mut rng)?;
             // Only lights above the surface get a shadow ray, as in the
             // integrator.
             (ls.wi.dot(at.ng) > 0.0).then(|| Ray::shadow(&at, ls.wi, ls.distance))

@@ -26,14 +26,16 @@
 use glam::Vec3;
 
 use super::light::{
-    ambient_radiance, escaped_radiance, pdf_li, sample_environment, sample_li, LightRef,
+    ambient_radiance, escaped_radiance, pdf_li, sample_environment, sample_li, Facing, LightRef,
     LightSample, LightSet,
 };
 use super::material::{self, emitted, is_specular};
 use crate::accel::{Accel, TraceCounters};
 use crate::geom::ray::SpawnPoint;
-use crate::geom::sampling::{uniform_hemisphere, Frame, Rng, UNIFORM_HEMISPHERE_PDF};
-use crate::geom::Ray;
+use crate::geom::sampling::{
+    uniform_hemisphere, uniform_sphere, Frame, Rng, UNIFORM_HEMISPHERE_PDF,
+};
+use crate::geom::{gamma, Ray};
 use crate::scene::{Light, Material, Scene};
 
 /// How direct lighting is estimated at a diffuse or glossy vertex.
@@ -160,10 +162,10 @@ struct Previous {
     /// The ray's density under BSDF sampling; 0 after a specular event
     /// (emission then counts fully).
     bsdf_pdf: f32,
-    /// Where the ray left, and the geometric normal there (the ambient
-    /// light is sampled around it).
+    /// Where the ray left, and which way that point faces (the ambient
+    /// light is sampled around its normals).
     from: Vec3,
-    normal: Vec3,
+    facing: Facing,
 }
 
 /// The mean of `n` samples of one light group.
@@ -235,7 +237,7 @@ impl<'a, A: Accel> Integrator<'a, A> {
                 n * pdf_li(
                     &self.lights.each[i],
                     prev.from,
-                    prev.normal,
+                    prev.facing,
                     q,
                     q_normal,
                     dir,
@@ -246,7 +248,7 @@ impl<'a, A: Accel> Integrator<'a, A> {
                     * pdf_li(
                         &self.lights.emitters[i],
                         prev.from,
-                        prev.normal,
+                        prev.facing,
                         q,
                         q_normal,
                         dir,
@@ -280,7 +282,7 @@ impl<'a, A: Accel> Integrator<'a, A> {
         let ambient = escaped_radiance(self.ambient, dir);
         if ambient != Vec3::ZERO {
             if let Some(light) = self.lights.ambient() {
-                let pdf = n * pdf_li(light, prev.from, prev.normal, Vec3::ZERO, Vec3::ZERO, dir);
+                let pdf = n * pdf_li(light, prev.from, prev.facing, Vec3::ZERO, Vec3::ZERO, dir);
                 le += ambient * power_heuristic(prev.bsdf_pdf, pdf);
             }
         }
@@ -308,7 +310,7 @@ impl<'a, A: Accel> Integrator<'a, A> {
         let mut prev = Previous {
             bsdf_pdf: 0.0,
             from: ray.origin,
-            normal: Vec3::Y,
+            facing: Facing::geometric(Vec3::Y),
         };
         let mut depth = 0u32;
         loop {
@@ -345,7 +347,8 @@ impl<'a, A: Accel> Integrator<'a, A> {
             // Opaque surfaces are two-sided: face the normals towards wo.
             // Dielectrics keep the outward normal to know inside from out.
             let dielectric = matches!(m, Material::Glass { .. } | Material::Refraction { .. });
-            let (ng, ns) = if !dielectric && wo.dot(sp.geometric_normal) < 0.0 {
+            let back = !dielectric && wo.dot(sp.geometric_normal) < 0.0;
+            let (ng, ns) = if back {
                 (-sp.geometric_normal, -sp.shading_normal)
             } else {
                 (sp.geometric_normal, sp.shading_normal)
@@ -364,8 +367,17 @@ impl<'a, A: Accel> Integrator<'a, A> {
                 ng,
                 ..sp.spawn_point()
             };
+            // Shadow rays leave from the point lifted onto the smooth
+            // surface (the shadow-terminator fix), where there is one.
+            let lift = sp.shadow_lift[usize::from(back)];
+            let lifted = (lift.dot(ng) > 0.0).then(|| SpawnPoint {
+                p: at.p + lift,
+                error: at.error + (at.p.abs() + lift.abs()) * gamma(1),
+                ng,
+            });
             let vertex = Vertex {
                 at: &at,
+                lifted: lifted.as_ref(),
                 frame: &frame,
                 wo: wo_local,
                 m,
@@ -401,7 +413,7 @@ impl<'a, A: Accel> Integrator<'a, A> {
             prev = Previous {
                 bsdf_pdf: if bs.specular { 0.0 } else { bs.pdf },
                 from: at.p,
-                normal: ng,
+                facing: vertex.facing(),
             };
             ray = Ray::spawn(&at, wi, f32::INFINITY);
             depth += 1;
@@ -451,19 +463,33 @@ impl<'a, A: Accel> Integrator<'a, A> {
                     return sum;
                 }
                 // Uniform over the geometric hemisphere: exactly the
-                // directions the surface scatters into.
+                // directions the surface scatters into. Where the point
+                // lifts onto the smooth surface, light sampling also takes
+                // light in front of the shading normal from behind the
+                // facet ([`Self::unoccluded`]): then the whole sphere, the
+                // same directions kept and traced from the same point.
                 let around = Frame::new(v.at.ng);
+                let (from, pdf) = match v.lifted {
+                    Some(lifted) => (lifted, UNIFORM_HEMISPHERE_PDF * 0.5),
+                    None => (v.at, UNIFORM_HEMISPHERE_PDF),
+                };
                 let count = n * groups;
                 let mut acc = Vec3::ZERO;
                 for _ in 0..count {
                     let (a, b) = rng.next_2d();
-                    let wi = around.to_world(uniform_hemisphere(a, b));
+                    let wi = match v.lifted {
+                        Some(_) => uniform_sphere(a, b),
+                        None => around.to_world(uniform_hemisphere(a, b)),
+                    };
                     let wi_local = v.frame.to_local(wi);
+                    if wi.dot(v.at.ng) <= 0.0 && wi_local.z <= 0.0 {
+                        continue;
+                    }
                     let f = material::eval(v.m, v.wo, wi_local);
                     if f == Vec3::ZERO {
                         continue;
                     }
-                    let ray = Ray::spawn(v.at, wi, f32::INFINITY);
+                    let ray = Ray::spawn(from, wi, f32::INFINITY);
                     let incoming = match self.accel.closest_hit(&ray, counters) {
                         Some(hit) => {
                             let material =
@@ -472,7 +498,7 @@ impl<'a, A: Accel> Integrator<'a, A> {
                         }
                         None => self.sky(wi),
                     };
-                    acc += f * incoming * (wi_local.z.abs() / UNIFORM_HEMISPHERE_PDF);
+                    acc += f * incoming * (wi_local.z.abs() / pdf);
                 }
                 sum += acc / count as f32;
             }
@@ -495,7 +521,7 @@ impl<'a, A: Accel> Integrator<'a, A> {
     ) -> Vec3 {
         // The ambient light is sampled around the geometric normal: its
         // hemisphere is exactly the directions the surface scatters into.
-        match sample_li(light, v.at.p, v.at.ng, rng) {
+        match sample_li(light, v.at.p, v.facing(), rng) {
             Some(ls) => self.unoccluded(v, &ls, pick, weighting, counters),
             None => Vec3::ZERO,
         }
@@ -511,21 +537,36 @@ impl<'a, A: Accel> Integrator<'a, A> {
         weighting: Option<f32>,
         counters: &mut TraceCounters,
     ) -> Vec3 {
-        // The geometric normal decides which side is lit.
-        if ls.wi.dot(v.at.ng) <= 0.0 {
+        // The geometric normal decides which side is lit, but where the
+        // point lifts onto the smooth surface (a coarse mesh's
+        // terminator) light in front of the shading normal reaches it
+        // too, tested from the lifted point: the facet does not shadow
+        // what the smooth surface it stands for would see.
+        let wi_local = v.frame.to_local(ls.wi);
+        let in_front = ls.wi.dot(v.at.ng) > 0.0;
+        if !in_front && (v.lifted.is_none() || wi_local.z <= 0.0) {
             return Vec3::ZERO;
         }
-        let wi_local = v.frame.to_local(ls.wi);
         let f = material::eval(v.m, v.wo, wi_local);
         if f == Vec3::ZERO {
             return Vec3::ZERO;
         }
-        let shadow = Ray::shadow(v.at, ls.wi, ls.distance);
+        let shadow = match v.lifted {
+            Some(from) if ls.distance.is_finite() => {
+                let to = v.at.p + ls.wi * ls.distance - from.p;
+                let length = to.length();
+                Ray::shadow(from, to / length, length)
+            }
+            Some(from) => Ray::shadow(from, ls.wi, ls.distance),
+            None => Ray::shadow(v.at, ls.wi, ls.distance),
+        };
         if self.accel.occluded(&shadow, counters) {
             return Vec3::ZERO;
         }
+        // BSDF sampling never leaves behind the geometric normal, so light
+        // sampling alone covers those directions.
         let weight = match weighting {
-            Some(samples) if ls.pdf.is_finite() => {
+            Some(samples) if ls.pdf.is_finite() && in_front => {
                 power_heuristic(samples * pick * ls.pdf, material::pdf(v.m, v.wo, wi_local))
             }
             _ => 1.0,
@@ -534,10 +575,24 @@ impl<'a, A: Accel> Integrator<'a, A> {
     }
 }
 
+impl Vertex<'_> {
+    /// Which way the vertex faces for light sampling: its shading normal
+    /// counts where shadow rays leave from the lifted point.
+    fn facing(&self) -> Facing {
+        Facing {
+            geometric: self.at.ng,
+            smooth: self.lifted.map(|_| self.frame.n),
+        }
+    }
+}
+
 /// A scattering vertex as direct lighting sees it: where rays leave, the
 /// shading frame, the outgoing direction in it, and the material.
 struct Vertex<'v> {
     at: &'v SpawnPoint,
+    /// Where shadow rays leave, if not from `at` (see
+    /// [`crate::scene::terminator_lift`]).
+    lifted: Option<&'v SpawnPoint>,
     frame: &'v Frame,
     wo: Vec3,
     m: &'v Material,

@@ -67,9 +67,39 @@ fn from_area_point(
     })
 }
 
-/// Samples `light` as seen from `p` with normal `n` (facing the side being
-/// lit). `None` when the sample carries no light.
-pub fn sample_li(light: &Light, p: Vec3, n: Vec3, rng: &mut Rng) -> Option<LightSample> {
+/// Which way a vertex faces, for the ambient light's sampling: its
+/// geometric normal (facing the side being lit) and, where shadow rays
+/// leave from the point lifted onto the smooth surface (the
+/// shadow-terminator fix), its shading normal too, since such a point
+/// takes light from in front of either.
+#[derive(Clone, Copy, Debug)]
+pub struct Facing {
+    pub geometric: Vec3,
+    pub smooth: Option<Vec3>,
+}
+
+impl Facing {
+    pub fn geometric(n: Vec3) -> Facing {
+        Facing {
+            geometric: n,
+            smooth: None,
+        }
+    }
+
+    /// The ambient light's density of direction `wi`: cosine-weighted
+    /// around the geometric normal, or half around each normal.
+    fn ambient_pdf(&self, wi: Vec3) -> f32 {
+        let cosine = |n: Vec3| wi.dot(n).max(0.0) * std::f32::consts::FRAC_1_PI;
+        match self.smooth {
+            None => cosine(self.geometric),
+            Some(ns) => 0.5 * (cosine(self.geometric) + cosine(ns)),
+        }
+    }
+}
+
+/// Samples `light` as seen from `p` facing `facing`. `None` when the
+/// sample carries no light.
+pub fn sample_li(light: &Light, p: Vec3, facing: Facing, rng: &mut Rng) -> Option<LightSample> {
     match *light {
         Light::Area(a) => {
             let (u, v) = rng.next_2d();
@@ -112,14 +142,20 @@ pub fn sample_li(light: &Light, p: Vec3, n: Vec3, rng: &mut Rng) -> Option<Light
             from_area_point(p, center + normal * radius, normal, area, radiance)
         }
         Light::Ambient { radiance } => {
-            // Cosine-weighted around n: contribution = L / pdf = L pi / cos.
+            // Cosine-weighted around the normal (or, with a smooth normal,
+            // around either, picked by the first number).
             let (u, v) = rng.next_2d();
-            let local = cosine_hemisphere(u, v);
-            let wi = Frame::new(n).to_world(local);
+            let (around, u) = match facing.smooth {
+                Some(ns) if u >= 0.5 => (ns, 2.0 * u - 1.0),
+                Some(_) => (facing.geometric, 2.0 * u),
+                None => (facing.geometric, u),
+            };
+            let local = cosine_hemisphere(u.min(1.0 - f32::EPSILON / 2.0), v);
+            let wi = Frame::new(around).to_world(local);
             if wi.y <= 0.0 || local.z <= 0.0 {
                 return None;
             }
-            let pdf = local.z * std::f32::consts::FRAC_1_PI;
+            let pdf = facing.ambient_pdf(wi);
             Some(LightSample {
                 wi,
                 distance: f32::INFINITY,
@@ -143,16 +179,16 @@ pub fn sample_environment(env: &Environment, rng: &mut Rng) -> Option<LightSampl
     })
 }
 
-/// The density with which [`sample_li`] on `light` from `p` (normal `n`)
-/// draws the direction that reaches point `q` of the light (normal
-/// `q_normal`), or direction `wi` for the ambient light.
-pub fn pdf_li(light: &Light, p: Vec3, n: Vec3, q: Vec3, q_normal: Vec3, wi: Vec3) -> f32 {
+/// The density with which [`sample_li`] on `light` from `p` (facing
+/// `facing`) draws the direction that reaches point `q` of the light
+/// (normal `q_normal`), or direction `wi` for the ambient light.
+pub fn pdf_li(light: &Light, p: Vec3, facing: Facing, q: Vec3, q_normal: Vec3, wi: Vec3) -> f32 {
     match *light {
         Light::Area(a) => area_to_solid_angle(p, q, a.normal, a.area),
         Light::Sphere { radius, .. } => {
             area_to_solid_angle(p, q, q_normal, 4.0 * std::f32::consts::PI * radius * radius)
         }
-        Light::Ambient { .. } => (wi.dot(n)).max(0.0) * std::f32::consts::FRAC_1_PI,
+        Light::Ambient { .. } => facing.ambient_pdf(wi),
         Light::Point { .. } | Light::Directional { .. } => 0.0,
     }
 }

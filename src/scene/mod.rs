@@ -207,6 +207,32 @@ pub struct SurfacePoint {
     /// Unit shading normal, on the same side as `geometric_normal`.
     pub shading_normal: Vec3,
     pub material: u32,
+    /// Where shadow rays leave instead of `position`, as offsets from it,
+    /// seen from the front (`geometric_normal`'s side) and from the back:
+    /// the point lifted onto the smooth surface the shading normals
+    /// describe (see [`terminator_lift`]); zero on flat shading, spheres
+    /// and where the surface does not bulge towards that side.
+    pub shadow_lift: [Vec3; 2],
+}
+
+/// The shadow-terminator offset of Hanika ("Hacking the Shadow
+/// Terminator", Ray Tracing Gems II, ch. 4, 2021): a point `p` of a
+/// triangle with corners `corners`, vertex normals `normals` (facing the
+/// side the offset is for) and barycentric weights `weights` moves, for
+/// each corner, out of the plane through that corner normal to its normal
+/// by as much as it lies below that plane, and the moves are blended by
+/// the weights. On a coarse mesh of a smooth object this puts the origin
+/// of shadow rays on the curved surface the smooth normals shade, so the
+/// facets themselves no longer shadow light that the shading normal says
+/// arrives (the "staircase" of dark facets along the terminator). Where
+/// the surface is flat or hollow towards that side the offset is zero.
+pub fn terminator_lift(p: Vec3, corners: [Vec3; 3], normals: [Vec3; 3], weights: [f32; 3]) -> Vec3 {
+    let mut lift = Vec3::ZERO;
+    for k in 0..3 {
+        let below = (p - corners[k]).dot(normals[k]).min(0.0);
+        lift -= normals[k] * (below * weights[k]);
+    }
+    lift
 }
 
 /// How many ulps of a primitive's size the error bound of a surface point
@@ -360,22 +386,31 @@ impl Scene {
             let error =
                 gamma(9) * ((a * w).abs() + (b * u).abs() + (c * v).abs()) + Vec3::splat(margin);
             let ng = self.geometric_normal(ray, hit);
-            let ns = match self.normal_mode {
-                NormalMode::Flat => ng,
+            let (ns, shadow_lift) = match self.normal_mode {
+                NormalMode::Flat => (ng, [Vec3::ZERO; 2]),
                 NormalMode::Smooth => {
-                    let [na, nb, nc] = match self.mesh.corner_normals.get(p) {
+                    let normals = match self.mesh.corner_normals.get(p) {
                         Some(corners) => *corners,
                         None => self.mesh.indices[p].map(|i| self.mesh.normals[i as usize]),
                     };
-                    let n = na * w + nb * u + nc * v;
-                    let n = n.normalize_or_zero();
-                    if n == Vec3::ZERO {
+                    let [na, nb, nc] = normals;
+                    let n = (na * w + nb * u + nc * v).normalize_or_zero();
+                    let ns = if n == Vec3::ZERO {
                         ng
                     } else if n.dot(ng) < 0.0 {
                         -n
                     } else {
                         n
-                    }
+                    };
+                    // The vertex normals as seen from ng's side, and from
+                    // the other.
+                    let front = if n.dot(ng) < 0.0 {
+                        normals.map(|x| -x)
+                    } else {
+                        normals
+                    };
+                    let lift = |normals| terminator_lift(position, [a, b, c], normals, [w, u, v]);
+                    (ns, [lift(front), lift(front.map(|x| -x))])
                 }
             };
             SurfacePoint {
@@ -384,6 +419,7 @@ impl Scene {
                 geometric_normal: ng,
                 shading_normal: ns,
                 material: self.mesh.materials[p],
+                shadow_lift,
             }
         } else {
             let s = &self.spheres[p - self.mesh.len()];
@@ -399,6 +435,7 @@ impl Scene {
                 geometric_normal: n,
                 shading_normal: n,
                 material: s.material,
+                shadow_lift: [Vec3::ZERO; 2],
             }
         }
     }

@@ -18,3 +18,4 @@ mod parity;
 mod report;
 mod series;
 mod split;
+mod terminator;
