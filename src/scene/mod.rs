@@ -341,7 +341,12 @@ impl Scene {
         let p = hit.prim as usize;
         match p.checked_sub(self.mesh.len()) {
             None => unit(self.mesh.face_normal(p)),
-            Some(s) => unit(ray.at(hit.t) - self.spheres[s].center),
+            // From the centre to the hit as (o - c) + t d: the point itself,
+            // rounded at the scale of its distance from the origin and
+            // then differenced, would lose the sphere's own precision far
+            // from the origin (at 10^3 units, 1e-3 of a unit sphere's
+            // shading; measured by `tests/suite/spheres.rs`).
+            Some(s) => unit((ray.origin - self.spheres[s].center) + ray.dir * hit.t),
         }
     }
 

@@ -17,5 +17,6 @@ mod loader;
 mod parity;
 mod report;
 mod series;
+mod spheres;
 mod split;
 mod terminator;
