@@ -59,22 +59,21 @@ impl Exposure {
         })
     }
 
-    /// The exposure that brings the mean luminance of `pixels` (finite
-    /// ones) to mid grey; none for a black image.
+    /// The exposure that brings the mean of `pixels` to mid grey: the
+    /// geometric mean of the luminance of the pixels that see any light
+    /// (Reinhard et al. 2002's key; black surroundings and a few bright
+    /// pixels do not move it); none for a black image.
     pub fn by_mean(pixels: &[Vec3]) -> Exposure {
         let (sum, n) = pixels
             .iter()
-            .filter(|p| p.is_finite())
-            .fold((0.0f64, 0usize), |(s, n), p| {
-                (s + f64::from(crate::geom::sampling::luminance(*p)), n + 1)
-            });
-        let mean = sum / n.max(1) as f64;
-        if mean > 0.0 {
-            let stops = (Self::MID_GREY / mean).log2();
-            Exposure::stops(stops.clamp(-Self::LIMIT, Self::LIMIT)).unwrap_or_default()
-        } else {
-            Exposure::NONE
+            .map(|p| f64::from(crate::geom::sampling::luminance(*p)))
+            .filter(|l| l.is_finite() && *l > 0.0)
+            .fold((0.0f64, 0usize), |(s, n), l| (s + l.ln(), n + 1));
+        if n == 0 {
+            return Exposure::NONE;
         }
+        let stops = (Self::MID_GREY.ln() - sum / n as f64) / std::f64::consts::LN_2;
+        Exposure::stops(stops.clamp(-Self::LIMIT, Self::LIMIT)).unwrap_or_default()
     }
 
     pub fn ev(self) -> f64 {
