@@ -24,8 +24,10 @@ pub struct Budget {
     pub reference_spp: u32,
     pub error_spp: Vec<u32>,
     pub adaptive_cap: u32,
-    /// Triangle counts of the generated meshes of the scaling study.
-    pub scaling: Vec<usize>,
+    /// The scaling study: how many times the scanned mesh is subdivided
+    /// (one scene per level from 0), and the copies of each cloud of it.
+    pub scaling_subdivisions: u32,
+    pub scaling_clouds: Vec<u32>,
     pub scaling_rays: usize,
     pub gallery: (u32, u32),
     pub gallery_spp: u32,
@@ -62,7 +64,8 @@ impl Budget {
                 reference_spp: 512,
                 error_spp: vec![1, 2, 4, 8, 16, 32],
                 adaptive_cap: 64,
-                scaling: vec![1_000, 10_000, 100_000, 1_000_000],
+                scaling_subdivisions: 3,
+                scaling_clouds: vec![2, 8, 32],
                 scaling_rays: 10_000,
                 gallery: (80, 60),
                 gallery_spp: 4,
@@ -89,7 +92,8 @@ impl Budget {
                 reference_spp: 8192,
                 error_spp: vec![1, 2, 4, 8, 16, 32, 64, 128, 256],
                 adaptive_cap: 1024,
-                scaling: vec![1_000, 10_000, 100_000, 1_000_000, 2_000_000],
+                scaling_subdivisions: 4,
+                scaling_clouds: vec![2, 8, 32, 128],
                 scaling_rays: 100_000,
                 gallery: (480, 360),
                 gallery_spp: 64,

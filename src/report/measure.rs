@@ -77,14 +77,24 @@ impl Measured {
 }
 
 /// Runs `f` once to warm up, then `repeats` times; returns seconds.
-pub fn time_repeats<T>(repeats: usize, mut f: impl FnMut() -> T) -> Measured {
+pub fn time_repeats<T>(repeats: usize, f: impl FnMut() -> T) -> Measured {
+    let start = Instant::now();
+    time_repeats_by(repeats, || start.elapsed().as_secs_f64(), f)
+}
+
+/// [`time_repeats`] by the clock `now` (seconds).
+pub fn time_repeats_by<T>(
+    repeats: usize,
+    now: impl Fn() -> f64,
+    mut f: impl FnMut() -> T,
+) -> Measured {
     std::hint::black_box(f());
     Measured::from_samples(
         (0..repeats.max(1))
             .map(|_| {
-                let start = Instant::now();
+                let start = now();
                 std::hint::black_box(f());
-                start.elapsed().as_secs_f64()
+                now() - start
             })
             .collect(),
     )
@@ -164,13 +174,25 @@ pub fn time_interleaved<T>(
 /// other work on a busy machine, which takes wall time from the thread but
 /// not CPU time, does not move it.
 pub fn thread_cpu_seconds() -> f64 {
+    cpu_seconds(libc::CLOCK_THREAD_CPUTIME_ID)
+}
+
+/// The CPU time every thread of this process has used, in seconds
+/// (`CLOCK_PROCESS_CPUTIME_ID`): a one-thread build's figure, which must
+/// count the build's own thread (Embree may build on one of its own even
+/// when asked for one thread) and not other processes' work.
+pub fn process_cpu_seconds() -> f64 {
+    cpu_seconds(libc::CLOCK_PROCESS_CPUTIME_ID)
+}
+
+fn cpu_seconds(clock: libc::clockid_t) -> f64 {
     let mut t = libc::timespec {
         tv_sec: 0,
         tv_nsec: 0,
     };
-    // SAFETY: `t` is a valid timespec to write; the clock id is a constant
-    // every Linux kernel since 2.6.12 knows.
-    let ok = unsafe { libc::clock_gettime(libc::CLOCK_THREAD_CPUTIME_ID, &mut t) } == 0;
+    // SAFETY: `t` is a valid timespec to write; both clock ids are
+    // constants every Linux kernel since 2.6.12 knows.
+    let ok = unsafe { libc::clock_gettime(clock, &mut t) } == 0;
     if ok {
         t.tv_sec as f64 + t.tv_nsec as f64 * 1e-9
     } else {

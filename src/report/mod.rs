@@ -116,7 +116,7 @@ pub fn run(options: &ReportOptions, log: &mut dyn FnMut(&str)) -> Result<(), Str
     step("adaptive against uniform measured");
     let environment_study = environment::measure(&budget, threads, out)?;
     step("environment light measured");
-    let scaling = scaling::measure(&budget)?;
+    let scaling = scaling::measure(&options.scenes_dir, &budget)?;
     scaling::plot(&scaling, out)?;
     step("scaling measured");
     let gallery_md = gallery::section(&options.scenes_dir, out, &budget, threads)?;

@@ -1,10 +1,16 @@
-//! How cost grows with scene size: builds and traces of the compared
-//! backends on generated bumpy plates of 10^3 to 2·10^6 triangles, with
-//! fitted log-log slopes.
+//! How cost grows with scene size, on meshes like users' meshes: a scanned
+//! mesh (sky/bunny.dae) subdivided to millions of triangles, and clouds of
+//! copies of it; builds and one-thread traces of the compared backends,
+//! with time per ray fitted as a power of n and as logarithmic growth.
+//!
+//! The generated bumpy plates this section measured before made both
+//! backends' time per ray grow as n^0.40: every ray met a near-grazing
+//! surface whose triangles shrank with n, so the workload, not the trees,
+//! drew that curve.
 
 use std::path::Path;
 
-use glam::Vec3;
+use glam::{Mat3, Vec3};
 
 use super::budget::Budget;
 use super::measure::{mrays_interleaved, time_repeats, Measured, Query};
@@ -12,14 +18,21 @@ use super::plot::{line_fit, loglog, loglog_slope, Series};
 use super::table::{Cell, Table};
 use crate::accel::config::compared;
 use crate::accel::BackendConfig;
-use crate::geom::sampling::Rng;
+use crate::geom::sampling::{uniform_sphere, Rng};
 use crate::geom::Ray;
-use crate::scene::generate::{plate, SceneBuilder};
+use crate::scene::generate::{subdivide, SceneBuilder};
 use crate::scene::{Material, NormalMode, Scene};
 
-/// One generated mesh: build time and one-thread throughput per compared
-/// backend.
+/// The scanned mesh every scaling scene is made of.
+pub const SCANNED: &str = "sky/bunny.dae";
+
+/// The two families of meshes, in the order of the rows.
+pub const FAMILIES: [&str; 2] = ["bunny subdivided", "cloud of bunnies"];
+
+/// One mesh: build time and one-thread throughput per compared backend.
 pub struct ScalingRow {
+    /// Which of [`FAMILIES`].
+    pub family: &'static str,
     pub triangles: usize,
     pub build: Vec<Measured>,
     pub mrays: Vec<Measured>,
@@ -29,45 +42,95 @@ pub struct Scaling {
     /// The compared backends, native first: the order of every vector.
     pub compared: Vec<BackendConfig>,
     pub rows: Vec<ScalingRow>,
-    /// Fitted slopes: build time per compared backend, time per ray per
-    /// compared backend.
-    pub build_slopes: Vec<f64>,
-    pub trace_slopes: Vec<f64>,
 }
 
-/// A bumpy square of about `triangles` triangles (a displaced grid, so the
-/// BVH has real depth to sort out).
-pub fn bumpy_plate(triangles: usize) -> Scene {
-    let n = ((triangles as f64 / 2.0).sqrt().round() as u32).max(1);
-    let (mut positions, tris) = plate(n);
-    for p in &mut positions {
-        p.z =
-            0.05 * (p.x * 13.0).sin() * (p.y * 11.0).cos() + 0.02 * (p.x * 57.0 + p.y * 31.0).sin();
-    }
-    let mut b = SceneBuilder::new(&format!("bumpy plate, {} triangles", tris.len()));
+/// The scanned mesh's triangles, transforms applied.
+type Mesh = (Vec<Vec3>, Vec<[u32; 3]>);
+
+fn scanned(dir: &Path) -> Result<Mesh, String> {
+    let scene = super::load(dir, SCANNED)?;
+    Ok((scene.mesh.positions.clone(), scene.mesh.indices.clone()))
+}
+
+fn scene_of(name: &str, meshes: &[Mesh]) -> Scene {
+    let mut b = SceneBuilder::new(name);
     let m = b.material(Material::DEFAULT);
-    b.mesh(&positions, &tris, m);
+    for (positions, tris) in meshes {
+        b.mesh(positions, tris, m);
+    }
     b.finish(NormalMode::Flat)
 }
 
-/// Rays from above the plate towards random points on it.
-fn plate_rays(n: usize) -> Vec<Ray> {
+/// The scanned mesh split `levels` times (4^levels times the triangles,
+/// the same surface).
+fn subdivided(mesh: &Mesh, levels: u32) -> Scene {
+    let mut out = mesh.clone();
+    for _ in 0..levels {
+        out = subdivide(&out.0, &out.1);
+    }
+    scene_of(&format!("{SCANNED} subdivided {levels}x"), &[out])
+}
+
+/// `count` copies of the scanned mesh, each turned about +Y, scaled by
+/// 0.4 to 1 and placed at random in a cube that grows with the count (so
+/// copies overlap a little, as a scanned scene's objects do). The same
+/// count gives the same scene.
+fn cloud(mesh: &Mesh, count: u32) -> Scene {
+    let mut rng = Rng::new(u64::from(count), 31);
+    let (lo, hi) = mesh.0.iter().fold((Vec3::MAX, Vec3::MIN), |(lo, hi), p| {
+        (lo.min(*p), hi.max(*p))
+    });
+    let (centre, size) = ((lo + hi) * 0.5, (hi - lo).max_element());
+    let side = size * 1.2 * (count as f32).cbrt();
+    let copies: Vec<Mesh> = (0..count)
+        .map(|_| {
+            let turn = Mat3::from_rotation_y(rng.next_f32() * std::f32::consts::TAU);
+            let scale = 0.4 + 0.6 * rng.next_f32();
+            let at = Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) * side;
+            let positions = mesh
+                .0
+                .iter()
+                .map(|p| at + turn * ((*p - centre) * scale))
+                .collect();
+            (positions, mesh.1.clone())
+        })
+        .collect();
+    scene_of(&format!("{count} copies of {SCANNED}"), &copies)
+}
+
+/// Rays from a sphere around the scene towards random points in the
+/// middle half of its bounds: about every ray meets the mesh, at every
+/// size, from every side.
+fn rays_into(scene: &Scene, n: usize) -> Vec<Ray> {
+    let b = scene.bounds();
+    let (centre, extent) = ((b.min + b.max) * 0.5, b.max - b.min);
+    let radius = extent.length();
     let mut rng = Rng::new(77, 9);
     (0..n)
         .map(|_| {
-            let target = Vec3::new(rng.next_f32() * 1.8 - 0.9, rng.next_f32() * 1.8 - 0.9, 0.0);
-            let origin = Vec3::new(rng.next_f32() * 4.0 - 2.0, rng.next_f32() * 4.0 - 2.0, 3.0);
+            let (u, v) = rng.next_2d();
+            let origin = centre + uniform_sphere(u, v) * radius;
+            let target = centre
+                + (Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) - 0.5) * extent * 0.5;
             Ray::new(origin, (target - origin).normalize())
         })
         .collect()
 }
 
-pub fn measure(budget: &Budget) -> Result<Scaling, String> {
-    let set = plate_rays(budget.scaling_rays);
+pub fn measure(dir: &Path, budget: &Budget) -> Result<Scaling, String> {
+    let mesh = scanned(dir)?;
     let compared = compared();
     let mut rows = Vec::new();
-    for &size in &budget.scaling {
-        let scene = bumpy_plate(size);
+    let scenes = (0..=budget.scaling_subdivisions)
+        .map(|levels| (FAMILIES[0], subdivided(&mesh, levels)))
+        .chain(
+            budget
+                .scaling_clouds
+                .iter()
+                .map(|&count| (FAMILIES[1], cloud(&mesh, count))),
+        );
+    for (family, scene) in scenes {
+        let set = rays_into(&scene, budget.scaling_rays);
         let repeats = if scene.triangle_count() >= 1_000_000 {
             2
         } else {
@@ -85,38 +148,36 @@ pub fn measure(budget: &Budget) -> Result<Scaling, String> {
         let all: Vec<_> = backends.iter().collect();
         let mrays = mrays_interleaved(&all, &set, Query::Closest, 1, repeats);
         rows.push(ScalingRow {
+            family,
             triangles: scene.triangle_count(),
             build,
             mrays,
         });
     }
-    let build_points = |i: usize| -> Vec<(f64, f64)> {
-        rows.iter()
+    Ok(Scaling { compared, rows })
+}
+
+impl Scaling {
+    fn family<'a>(&'a self, family: &'a str) -> impl Iterator<Item = &'a ScalingRow> {
+        self.rows.iter().filter(move |r| r.family == family)
+    }
+
+    /// The log-log slope of backend `i`'s build time over `family`.
+    fn build_slope(&self, family: &str, i: usize) -> f64 {
+        let points: Vec<(f64, f64)> = self
+            .family(family)
             .map(|r| (r.triangles as f64, r.build[i].median * 1e3))
-            .collect()
-    };
-    let trace_points = |i: usize| -> Vec<(f64, f64)> {
-        rows.iter()
-            .map(|r| (r.triangles as f64, 1e3 / r.mrays[i].median))
-            .collect()
-    };
-    let build_slopes = (0..compared.len())
-        .map(|i| loglog_slope(&build_points(i)))
-        .collect();
-    let trace_slopes = (0..compared.len())
-        .map(|i| loglog_slope(&trace_points(i)))
-        .collect();
-    Ok(Scaling {
-        compared,
-        rows,
-        build_slopes,
-        trace_slopes,
-    })
+            .collect();
+        loglog_slope(&points)
+    }
 }
 
 pub fn table(s: &Scaling) -> Table {
     let labels: Vec<String> = s.compared.iter().map(BackendConfig::label).collect();
-    let mut columns = vec![("triangles".to_string(), "triangles".to_string())];
+    let mut columns = vec![
+        ("mesh".to_string(), "mesh".to_string()),
+        ("triangles".to_string(), "triangles".to_string()),
+    ];
     columns.extend(
         labels
             .iter()
@@ -135,7 +196,7 @@ pub fn table(s: &Scaling) -> Table {
     }));
     let mut table = Table::new(columns);
     for r in &s.rows {
-        let mut cells = vec![Cell::Count(r.triangles as u64)];
+        let mut cells = vec![Cell::Text(r.family.to_string()), Cell::Count(r.triangles as u64)];
         cells.extend(
             r.build
                 .iter()
@@ -153,13 +214,12 @@ pub fn table(s: &Scaling) -> Table {
     table
 }
 
-/// Backend `i`'s time per ray fitted two ways: as a power of n (`(slope,
-/// R²)` of ln t against ln n) and as logarithmic growth (`(ns per
-/// doubling of n, R²)` of t against log2 n), a BVH's ideal.
-pub fn trace_fits(s: &Scaling, i: usize) -> ((f64, f64), (f64, f64)) {
+/// Backend `i`'s time per ray over `family` fitted two ways: as a power
+/// of n (`(slope, R²)` of ln t against ln n) and as logarithmic growth
+/// (`(ns per doubling of n, R²)` of t against log2 n), a BVH's ideal.
+pub fn trace_fits(s: &Scaling, family: &str, i: usize) -> ((f64, f64), (f64, f64)) {
     let points = |f: fn(f64) -> f64, g: fn(f64) -> f64| -> Vec<(f64, f64)> {
-        s.rows
-            .iter()
+        s.family(family)
             .map(|r| (f(r.triangles as f64), g(1e3 / r.mrays[i].median)))
             .collect()
     };
@@ -170,6 +230,7 @@ pub fn trace_fits(s: &Scaling, i: usize) -> ((f64, f64), (f64, f64)) {
 
 pub fn slopes_table(s: &Scaling) -> Table {
     let mut table = Table::new([
+        ("mesh", "mesh"),
         ("backend", "backend"),
         ("build", "build time ∝ n^"),
         ("ns_per_ray", "time per ray ∝ n^"),
@@ -177,50 +238,66 @@ pub fn slopes_table(s: &Scaling) -> Table {
         ("ns_per_doubling", "ns per ray per doubling of n (log fit)"),
         ("log_r2", "R², log fit"),
     ]);
-    for (i, c) in s.compared.iter().enumerate() {
-        let ((_, p2), (l, l2)) = trace_fits(s, i);
-        table.row(vec![
-            Cell::Text(c.label()),
-            Cell::Number(s.build_slopes[i], 2),
-            Cell::Number(s.trace_slopes[i], 2),
-            Cell::Number(p2, 3),
-            Cell::Number(l, 1),
-            Cell::Number(l2, 3),
-        ]);
+    for family in FAMILIES {
+        for (i, c) in s.compared.iter().enumerate() {
+            let ((p, p2), (l, l2)) = trace_fits(s, family, i);
+            table.row(vec![
+                Cell::Text(family.to_string()),
+                Cell::Text(c.label()),
+                Cell::Number(s.build_slope(family, i), 2),
+                Cell::Number(p, 2),
+                Cell::Number(p2, 3),
+                Cell::Number(l, 1),
+                Cell::Number(l2, 3),
+            ]);
+        }
     }
     table
 }
 
-/// What the fits say, in words: the measured exponent, and which of the
-/// two forms describes native's time per ray better.
+/// What the fits say, in words, per family: the measured exponent, and
+/// which of the two forms describes native's time per ray better.
 fn growth_text(s: &Scaling) -> String {
-    if s.rows.len() < 3 {
-        return String::new();
+    let mut out = Vec::new();
+    for family in FAMILIES {
+        if s.family(family).count() < 3 {
+            continue;
+        }
+        let ((p, p2), (l, l2)) = trace_fits(s, family, 0);
+        let better = if l2 >= p2 {
+            "logarithmic growth, a BVH's ideal, fits it at least as well as a power"
+        } else {
+            "a power of n fits it better than logarithmic growth, a BVH's ideal"
+        };
+        out.push(format!(
+            "On the {family}, native's time per ray grows as n^{p:.2} (R² {p2:.3}), or by {l:.1} ns per doubling of n (R² {l2:.3}): {better}."
+        ));
     }
-    let ((p, p2), (l, l2)) = trace_fits(s, 0);
-    let better = if l2 >= p2 {
-        "logarithmic growth, a BVH's ideal, fits it at least as well as a power"
-    } else {
-        "a power of n fits it better than logarithmic growth, a BVH's ideal: on these meshes the work per ray (triangles near each ray), not only the tree's depth, grows with n"
-    };
-    format!(
-        "Native's time per ray grows as n^{p:.2} (R² {p2:.3}), or by {l:.1} ns per doubling of n (R² {l2:.3}): {better}. A build is O(n log n), a slope a little over 1."
-    )
+    out.push("A build is O(n log n), a slope a little over 1.".into());
+    out.join(" ")
 }
 
-/// Draws `scaling_build.svg` and `scaling_trace.svg` into `out`.
+/// Draws `scaling_build.svg` and `scaling_trace.svg` into `out`: one line
+/// per backend and family.
 pub fn plot(s: &Scaling, out: &Path) -> Result<(), String> {
-    let lines = |value: &dyn Fn(&ScalingRow, usize) -> f64, slopes: &[f64]| -> Vec<Series> {
-        s.compared
+    let lines = |value: &dyn Fn(&ScalingRow, usize) -> f64| -> Vec<Series> {
+        FAMILIES
             .iter()
-            .enumerate()
-            .map(|(i, c)| Series {
-                name: format!("{} (slope {:.2})", c.label(), slopes[i]),
-                points: s
-                    .rows
-                    .iter()
-                    .map(|r| (r.triangles as f64, value(r, i)))
-                    .collect(),
+            .flat_map(|family| {
+                s.compared.iter().enumerate().map(move |(i, c)| {
+                    let points: Vec<(f64, f64)> = s
+                        .family(family)
+                        .map(|r| (r.triangles as f64, value(r, i)))
+                        .collect();
+                    Series {
+                        name: format!(
+                            "{}, {family} (slope {:.2})",
+                            c.label(),
+                            loglog_slope(&points)
+                        ),
+                        points,
+                    }
+                })
             })
             .collect()
     };
@@ -229,20 +306,20 @@ pub fn plot(s: &Scaling, out: &Path) -> Result<(), String> {
         "build time against triangles",
         "triangles",
         "build time (ms)",
-        &lines(&|r, i| r.build[i].median * 1e3, &s.build_slopes),
+        &lines(&|r, i| r.build[i].median * 1e3),
     )?;
     loglog(
         &out.join("scaling_trace.svg"),
         "trace time per ray against triangles",
         "triangles",
         "ns per ray (1 thread)",
-        &lines(&|r, i| 1e3 / r.mrays[i].median, &s.trace_slopes),
+        &lines(&|r, i| 1e3 / r.mrays[i].median),
     )
 }
 
 pub fn markdown(s: &Scaling) -> String {
     format!(
-        "## How cost grows with scene size\n\nGenerated bumpy plates; builds on all threads (median of repeats), traces on one thread with the same rays.\n\n{}\n{}\n{}\n\n![build scaling](scaling_build.svg)\n![trace scaling](scaling_trace.svg)\n\n",
+        "## How cost grows with scene size\n\nThe scanned `{SCANNED}` split into four triangles per triangle, again and again (the same surface, ever finer), and clouds of turned and scaled copies of it; rays from a sphere around each scene into the middle of its bounds. Builds on all threads (median of repeats), traces on one thread with the same rays.\n\n{}\n{}\n{}\n\n![build scaling](scaling_build.svg)\n![trace scaling](scaling_trace.svg)\n\n",
         table(s).markdown(),
         slopes_table(s).markdown(),
         growth_text(s)

@@ -81,24 +81,34 @@ pub fn icosphere(level: u32) -> (Vec<Vec3>, Vec<[u32; 3]>) {
         [9, 8, 1],
     ];
     for _ in 0..level {
-        let mut midpoints = std::collections::HashMap::new();
-        let mut mid = |a: u32, b: u32, positions: &mut Vec<Vec3>| -> u32 {
-            let key = (a.min(b), a.max(b));
-            *midpoints.entry(key).or_insert_with(|| {
-                positions.push(((positions[a as usize] + positions[b as usize]) * 0.5).normalize());
-                positions.len() as u32 - 1
-            })
-        };
-        let mut next = Vec::with_capacity(tris.len() * 4);
-        for [a, b, c] in tris {
-            let ab = mid(a, b, &mut positions);
-            let bc = mid(b, c, &mut positions);
-            let ca = mid(c, a, &mut positions);
-            next.extend([[a, ab, ca], [b, bc, ab], [c, ca, bc], [ab, bc, ca]]);
+        (positions, tris) = subdivide(&positions, &tris);
+        for p in &mut positions {
+            *p = p.normalize();
         }
-        tris = next;
     }
     (positions, tris)
+}
+
+/// Every triangle split into four at its edges' midpoints (shared edges
+/// share their midpoint): four times the triangles, the same surface.
+pub fn subdivide(positions: &[Vec3], tris: &[[u32; 3]]) -> (Vec<Vec3>, Vec<[u32; 3]>) {
+    let mut positions = positions.to_vec();
+    let mut midpoints = std::collections::HashMap::with_capacity(tris.len() * 3 / 2);
+    let mut mid = |a: u32, b: u32, positions: &mut Vec<Vec3>| -> u32 {
+        let key = (a.min(b), a.max(b));
+        *midpoints.entry(key).or_insert_with(|| {
+            positions.push((positions[a as usize] + positions[b as usize]) * 0.5);
+            positions.len() as u32 - 1
+        })
+    };
+    let mut next = Vec::with_capacity(tris.len() * 4);
+    for &[a, b, c] in tris {
+        let ab = mid(a, b, &mut positions);
+        let bc = mid(b, c, &mut positions);
+        let ca = mid(c, a, &mut positions);
+        next.extend([[a, ab, ca], [b, bc, ab], [c, ca, bc], [ab, bc, ca]]);
+    }
+    (positions, next)
 }
 
 /// A flat `n x n` grid of quads (2 n^2 triangles) on `z = 0` over
