@@ -125,3 +125,32 @@ pub fn fails_in_one_line(args: &[&str], dir: &Path, expected: &str) {
     assert!(stderr.contains(expected), "'{expected}' not in: {what}");
     assert_eq!(files(), before, "a failed run left a file: {what}");
 }
+
+/// Direct light only (`-m 1`), one ray through each pixel's centre of a
+/// `size` x `size` image from the scene's own camera node: for tests that
+/// hold pixels against a closed form. Returns the film and the camera, so
+/// that a test can trace the same rays itself.
+pub fn direct_light_at_pixel_centres<A: hybrid::accel::Accel>(
+    scene: &Scene,
+    accel: &A,
+    estimator: hybrid::render::integrator::DirectEstimator,
+    size: u32,
+) -> (hybrid::render::film::Film, hybrid::render::camera::Camera) {
+    use hybrid::render::integrator::{PathSettings, Shading};
+    use hybrid::render::{render, RenderSettings, Silent};
+    let settings = RenderSettings {
+        width: size,
+        height: size,
+        samples: 1,
+        shading: Shading::Path(PathSettings {
+            estimator,
+            max_bounces: 1,
+            ..PathSettings::default()
+        }),
+        camera: hybrid::render::camera::CameraMode::Node,
+        threads: 2,
+        ..RenderSettings::default()
+    };
+    let film = render(scene, accel, &settings, &Silent).film;
+    (film, settings.camera_for(scene))
+}

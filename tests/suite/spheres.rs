@@ -37,8 +37,8 @@ fn tessellated(scene: &Scene, level: u32) -> Scene {
     out
 }
 
-/// Pixels whose centre ray hits primitive kind `which` of `scene` (the
-/// first sphere, or the triangles that replaced it).
+/// Pixels whose centre ray hits the sphere at `centre` of `radius` in
+/// `scene`, well inside its silhouette.
 fn sphere_pixels(scene: &Scene, settings: &RenderSettings, centre: Vec3, radius: f32) -> Vec<usize> {
     let accel = BackendConfig::NATIVE.build(scene).expect("builds");
     let camera = settings.camera_for(scene);
@@ -142,21 +142,12 @@ fn a_lone_sphere_under_a_directional_light_is_shaded_exactly() {
         let scene = b.finish(NormalMode::Smooth);
         for backend in hybrid::accel::config::compared() {
             let accel = backend.build(&scene).expect("builds");
-            let settings = RenderSettings {
-                width: 96,
-                height: 96,
-                samples: 1,
-                shading: Shading::Path(PathSettings {
-                    estimator: DirectEstimator::LightSampling,
-                    max_bounces: 1,
-                    ..PathSettings::default()
-                }),
-                camera: CameraMode::Node,
-                threads: 2,
-                ..RenderSettings::default()
-            };
-            let film = render(&scene, &accel, &settings, &Silent).film;
-            let camera = settings.camera_for(&scene);
+            let (film, camera) = crate::common::direct_light_at_pixel_centres(
+                &scene,
+                &accel,
+                DirectEstimator::LightSampling,
+                96,
+            );
             let (mut checked, mut worst, mut black) = (0, 0.0f64, 0);
             for y in 0..96u32 {
                 for x in 0..96u32 {

@@ -4,13 +4,13 @@
 
 use glam::Vec3;
 use hybrid::accel::{config, Accel, TraceCounters};
-use hybrid::render::camera::CameraMode;
-use hybrid::render::integrator::{DirectEstimator, PathSettings, Shading};
-use hybrid::render::{render, RenderSettings, Silent};
+use hybrid::render::integrator::DirectEstimator;
 use hybrid::scene::builder::SceneBuilder;
 use hybrid::scene::generate::icosphere;
 use hybrid::choice::Choice;
 use hybrid::scene::{Light, Material, NormalMode, Scene};
+
+use crate::common;
 
 /// The light's direction: from the right and a little above, so a
 /// camera on +Z sees the terminator run down the middle of the sphere.
@@ -72,25 +72,13 @@ fn a_coarse_smooth_sphere_shows_no_terminator_staircase_and_keeps_cast_shadows()
     let scene = coarse_sphere();
     let sphere_triangles = 80u32;
     let (w, h) = (160u32, 160u32);
+    assert_eq!(w, h, "a square image");
     let l = to_light();
     for backend in config::compared() {
         for estimator in [DirectEstimator::Mis, DirectEstimator::LightSampling] {
             let accel = backend.build(&scene).expect("builds");
-            let settings = RenderSettings {
-                width: w,
-                height: h,
-                samples: 1,
-                shading: Shading::Path(PathSettings {
-                    estimator,
-                    max_bounces: 1,
-                    ..PathSettings::default()
-                }),
-                camera: CameraMode::Node,
-                threads: 2,
-                ..RenderSettings::default()
-            };
-            let film = render(&scene, &accel, &settings, &Silent).film;
-            let camera = settings.camera_for(&scene);
+            let (film, camera) =
+                common::direct_light_at_pixel_centres(&scene, &accel, estimator, w);
             let mut counters = TraceCounters::default();
             let (mut terminator, mut dark, mut lit, mut shadowed, mut leaks) = (0, 0, 0, 0, 0);
             for y in 0..h {
