@@ -103,7 +103,12 @@ pub fn replay(dir: &Path, settle: Settle) -> Result<Vec<PairedRow>, String> {
         }
         let (query, flat) = file::read_rays(&path).map_err(|e| e.to_string())?;
         let refs: Vec<(String, &Backend)> = backends.iter().map(|(l, b)| (l.clone(), b)).collect();
-        rows.push(compare(kind, query, &flat, &refs, settle));
+        // On a one-thread pool, as the report runs it: where the traversal
+        // runs moves native's speed (docs/design.md, Measuring), so the
+        // two must run alike to agree.
+        rows.push(crate::report::measure::on_threads(1, || {
+            compare(kind, query, &flat, &refs, settle)
+        }));
     }
     if rows.is_empty() {
         return Err(format!(
