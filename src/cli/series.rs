@@ -348,8 +348,12 @@ pub fn run(args: &SeriesArgs, raw: &[String]) -> Result<(), String> {
             .map(|(a, v)| format!("{}={v}", a.name))
             .collect::<Vec<_>>()
             .join(" ");
-        let mut variant = Variant::try_parse_from(&argv)
-            .map_err(|e| format!("--vary {what}: {}", super::one_line(&e.render().to_string())))?;
+        let mut variant = Variant::try_parse_from(&argv).map_err(|e| {
+            format!(
+                "--vary {what}: {}",
+                super::one_line(&e.render().to_string())
+            )
+        })?;
         for (axis, value) in axes.iter().zip(values) {
             if axis.name == "scene" {
                 variant.series.render.input.scene = Some(PathBuf::from(value));
@@ -513,9 +517,7 @@ fn tables(axes: &[Axis], timed: &[Timed], title: &str) -> (String, String) {
     let mut csv = axes
         .iter()
         .map(|a| a.name.clone())
-        .chain(
-            ["triangles", "build_ms", "render_ms", "total_ms", "mean_spp"].map(String::from),
-        )
+        .chain(["triangles", "build_ms", "render_ms", "total_ms", "mean_spp"].map(String::from))
         .collect::<Vec<_>>()
         .join(",");
     csv.push('\n');
@@ -553,7 +555,9 @@ fn tables(axes: &[Axis], timed: &[Timed], title: &str) -> (String, String) {
         None => vec![None],
     };
     for c in &columns {
-        let prefix = c.map_or(String::new(), |v| format!("{} = {} ", axes[1].name, axes[1].shown(v)));
+        let prefix = c.map_or(String::new(), |v| {
+            format!("{} = {} ", axes[1].name, axes[1].shown(v))
+        });
         header.push(format!("{prefix}build"));
         header.push(format!("{prefix}render"));
     }
@@ -565,7 +569,10 @@ fn tables(axes: &[Axis], timed: &[Timed], title: &str) -> (String, String) {
         let row: Vec<&Timed> = timed.iter().filter(|t| t.values[0] == shown).collect();
         let mut cells = vec![shown.to_string()];
         if with_triangles {
-            cells.push(row.first().map_or(String::new(), |t| t.triangles.to_string()));
+            cells.push(
+                row.first()
+                    .map_or(String::new(), |t| t.triangles.to_string()),
+            );
         }
         for t in &row {
             cells.push(time(t.build_seconds));

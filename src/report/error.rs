@@ -154,8 +154,8 @@ fn point<A: Accel>(scene: &Scene, accel: &A, s: &RenderSettings, reference: &Fil
         let out = render(scene, accel, &seeded, &Silent);
         seconds += out.seconds;
         squared += rmse(&out.film, reference).powi(2);
-        spp += out.film.samples.iter().map(|&n| n as f64).sum::<f64>()
-            / out.film.samples.len() as f64;
+        spp +=
+            out.film.samples.iter().map(|&n| n as f64).sum::<f64>() / out.film.samples.len() as f64;
     }
     let n = f64::from(seeds);
     ErrorPoint {

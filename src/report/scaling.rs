@@ -196,7 +196,10 @@ pub fn table(s: &Scaling) -> Table {
     }));
     let mut table = Table::new(columns);
     for r in &s.rows {
-        let mut cells = vec![Cell::Text(r.family.to_string()), Cell::Count(r.triangles as u64)];
+        let mut cells = vec![
+            Cell::Text(r.family.to_string()),
+            Cell::Count(r.triangles as u64),
+        ];
         cells.extend(
             r.build
                 .iter()

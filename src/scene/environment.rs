@@ -499,7 +499,10 @@ mod tests {
         let env = Environment::from_fn("1 + y", 32, 16, |d| Vec3::splat(1.0 + d.y));
         let truth = 4.0 * std::f64::consts::PI;
         let by_quadrature = quadrature(&env);
-        assert!((by_quadrature - truth).abs() < 1e-3 * truth, "quadrature {by_quadrature}");
+        assert!(
+            (by_quadrature - truth).abs() < 1e-3 * truth,
+            "quadrature {by_quadrature}"
+        );
         let mut uniform = env.clone();
         uniform.sampling = EnvSampling::Uniform;
         for (name, env) in [("by luminance", &env), ("uniform", &uniform)] {

@@ -145,7 +145,9 @@ fn an_adaptive_series_writes_each_rate_image_beside_its_render() {
         ],
         &dir,
     );
-    let sheet = image::open(dir.join("ad.png")).expect("the sheet").to_rgb8();
+    let sheet = image::open(dir.join("ad.png"))
+        .expect("the sheet")
+        .to_rgb8();
     for v in ["8", "32"] {
         let render = image::open(dir.join(format!("ad_{v}.png")))
             .expect("the render")
@@ -182,15 +184,31 @@ fn two_varied_options_make_a_grid_and_a_two_way_table_of_times() {
     let scenes = format!("scene={},{}", empty.display(), bunny.display());
     succeeds(
         &[
-            "series", "--normals", "--vary", &scenes, "--vary", "accel=native,none", "-r", "24",
-            "18", "-f", "bvh.png",
+            "series",
+            "--normals",
+            "--vary",
+            &scenes,
+            "--vary",
+            "accel=native,none",
+            "-r",
+            "24",
+            "18",
+            "-f",
+            "bvh.png",
         ],
         &dir,
     );
-    let sheet = image::open(dir.join("bvh.png")).expect("the sheet").to_rgb8();
+    let sheet = image::open(dir.join("bvh.png"))
+        .expect("the sheet")
+        .to_rgb8();
     // Two columns (the backends), two rows (the scenes).
     assert_eq!(sheet.width(), 2 * 24 + 3 * 8, "sheet width");
-    for name in ["CBempty_native", "CBempty_none", "bunny_native", "bunny_none"] {
+    for name in [
+        "CBempty_native",
+        "CBempty_none",
+        "bunny_native",
+        "bunny_none",
+    ] {
         assert!(dir.join(format!("bvh_{name}.png")).is_file(), "{name}");
     }
     let csv = std::fs::read_to_string(dir.join("bvh.csv")).expect("the CSV");
@@ -216,7 +234,10 @@ fn two_varied_options_make_a_grid_and_a_two_way_table_of_times() {
         assert_eq!(&f[..3], &[scene, accel, &triangles(file)], "{line}");
         let ms: Vec<f64> = f[3..6].iter().map(|v| v.parse().expect("a time")).collect();
         assert!(ms[1] > 0.0, "no render time: {line}");
-        assert!((ms[0] + ms[1] - ms[2]).abs() < 0.01, "total != build + render: {line}");
+        assert!(
+            (ms[0] + ms[1] - ms[2]).abs() < 0.01,
+            "total != build + render: {line}"
+        );
         if accel == "native" {
             assert!(ms[0] > 0.0, "the BVH's build took no time: {line}");
         }
@@ -226,15 +247,22 @@ fn two_varied_options_make_a_grid_and_a_two_way_table_of_times() {
         md.contains("| scene | triangles | accel = native build | accel = native render | accel = none build | accel = none render |"),
         "{md}"
     );
-    assert!(md.contains(&format!("| bunny | {} |", triangles("sky/bunny.dae"))), "{md}");
+    assert!(
+        md.contains(&format!("| bunny | {} |", triangles("sky/bunny.dae"))),
+        "{md}"
+    );
     // Three renders at most per option pair is not a limit; 65 renders is.
     fails_in_one_line(
-        &["series", "--vary", "s=1..9", "--vary", "m=0..7", "-f", "x.png"],
+        &[
+            "series", "--vary", "s=1..9", "--vary", "m=0..7", "-f", "x.png",
+        ],
         &dir,
         "72 renders",
     );
     fails_in_one_line(
-        &["series", "--vary", "s=1,2", "--vary", "s=3,4", "-f", "x.png"],
+        &[
+            "series", "--vary", "s=1,2", "--vary", "s=3,4", "-f", "x.png",
+        ],
         &dir,
         "varied twice",
     );
@@ -265,9 +293,16 @@ fn exposure_brightens_the_png_only() {
         img.pixels().map(|p| f64::from(p.0[1])).sum::<f64>() / img.pixels().len() as f64
     };
     let (plain, bright, dark) = (mean("plain.png"), mean("bright.png"), mean("dark.png"));
-    assert!(bright > plain * 1.3 && dark < plain * 0.6, "{dark} {plain} {bright}");
+    assert!(
+        bright > plain * 1.3 && dark < plain * 0.6,
+        "{dark} {plain} {bright}"
+    );
     let radiance = |f: &str| image::open(dir.join(f)).expect(f).to_rgb32f().into_raw();
-    assert_eq!(radiance("plain.exr"), radiance("bright.exr"), "the EXR changed");
+    assert_eq!(
+        radiance("plain.exr"),
+        radiance("bright.exr"),
+        "the EXR changed"
+    );
     fails_in_one_line(
         &["render", "--exposure", "nan", "-f", "x.png"],
         &dir,

@@ -39,7 +39,12 @@ fn tessellated(scene: &Scene, level: u32) -> Scene {
 
 /// Pixels whose centre ray hits the sphere at `centre` of `radius` in
 /// `scene`, well inside its silhouette.
-fn sphere_pixels(scene: &Scene, settings: &RenderSettings, centre: Vec3, radius: f32) -> Vec<usize> {
+fn sphere_pixels(
+    scene: &Scene,
+    settings: &RenderSettings,
+    centre: Vec3,
+    radius: f32,
+) -> Vec<usize> {
     let accel = BackendConfig::NATIVE.build(scene).expect("builds");
     let camera = settings.camera_for(scene);
     let mut counters = TraceCounters::default();
@@ -79,8 +84,20 @@ fn an_analytic_sphere_renders_as_its_fine_tessellation_does() {
         threads: 2,
         ..RenderSettings::default()
     };
-    let analytic = render(&scene, &BackendConfig::NATIVE.build(&scene).unwrap(), &settings, &Silent).film;
-    let tess = render(&mesh, &BackendConfig::NATIVE.build(&mesh).unwrap(), &settings, &Silent).film;
+    let analytic = render(
+        &scene,
+        &BackendConfig::NATIVE.build(&scene).unwrap(),
+        &settings,
+        &Silent,
+    )
+    .film;
+    let tess = render(
+        &mesh,
+        &BackendConfig::NATIVE.build(&mesh).unwrap(),
+        &settings,
+        &Silent,
+    )
+    .film;
     for (k, s) in scene.spheres.iter().enumerate() {
         let pixels = sphere_pixels(&scene, &settings, s.center, s.radius);
         let sum = |film: &hybrid::render::film::Film| -> f64 {
@@ -108,7 +125,11 @@ fn an_analytic_sphere_renders_as_its_fine_tessellation_does() {
             pixels.len(),
             a / t,
         );
-        assert!(pixels.len() > 30, "sphere {k}: only {} pixels", pixels.len());
+        assert!(
+            pixels.len() > 30,
+            "sphere {k}: only {} pixels",
+            pixels.len()
+        );
         // The tessellation's own error (its faces lie up to 4e-5 of the
         // radius inside the sphere) is far below 0.1%; a bias of 0.26%
         // would be many standard errors.
@@ -174,9 +195,14 @@ fn a_lone_sphere_under_a_directional_light_is_shaded_exactly() {
                 }
             }
             let label = format!("{} at {offset}", backend.label());
-            println!("{label}: {checked} lit pixels, worst relative error {worst:.2e}, {black} black");
+            println!(
+                "{label}: {checked} lit pixels, worst relative error {worst:.2e}, {black} black"
+            );
             assert!(checked > 1500, "{label}: only {checked} lit pixels");
-            assert_eq!(black, 0, "{label}: {black} lit pixels are black (self-shadowing)");
+            assert_eq!(
+                black, 0,
+                "{label}: {black} lit pixels are black (self-shadowing)"
+            );
             assert!(worst < 1e-4, "{label}: a pixel is off by {worst:.2e}");
         }
     }

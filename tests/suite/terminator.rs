@@ -4,10 +4,10 @@
 
 use glam::Vec3;
 use hybrid::accel::{config, Accel, TraceCounters};
+use hybrid::choice::Choice;
 use hybrid::render::integrator::DirectEstimator;
 use hybrid::scene::builder::SceneBuilder;
 use hybrid::scene::generate::icosphere;
-use hybrid::choice::Choice;
 use hybrid::scene::{Light, Material, NormalMode, Scene};
 
 use crate::common;
@@ -135,7 +135,10 @@ fn a_coarse_smooth_sphere_shows_no_terminator_staircase_and_keeps_cast_shadows()
                 dark, 0,
                 "{label}: {dark} of {lit} pixels facing the light by their shading normal are darker than it says"
             );
-            assert_eq!(leaks, 0, "{label}: {leaks} of {shadowed} pixels in the occluder's shadow are lit");
+            assert_eq!(
+                leaks, 0,
+                "{label}: {leaks} of {shadowed} pixels in the occluder's shadow are lit"
+            );
         }
     }
 }
