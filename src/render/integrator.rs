@@ -369,7 +369,11 @@ impl<'a, A: Accel> Integrator<'a, A> {
             };
             // Shadow rays leave from the point lifted onto the smooth
             // surface (the shadow-terminator fix), where there is one.
-            let lift = sp.shadow_lift[usize::from(back)];
+            let lift = if is_specular(m) {
+                Vec3::ZERO
+            } else {
+                self.scene.shadow_lift(&hit, sp.position, ng)
+            };
             let lifted = (lift.dot(ng) > 0.0).then(|| SpawnPoint {
                 p: at.p + lift,
                 error: at.error + (at.p.abs() + lift.abs()) * gamma(1),

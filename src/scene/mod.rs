@@ -207,12 +207,14 @@ pub struct SurfacePoint {
     /// Unit shading normal, on the same side as `geometric_normal`.
     pub shading_normal: Vec3,
     pub material: u32,
-    /// Where shadow rays leave instead of `position`, as offsets from it,
-    /// seen from the front (`geometric_normal`'s side) and from the back:
-    /// the point lifted onto the smooth surface the shading normals
-    /// describe (see [`terminator_lift`]); zero on flat shading, spheres
-    /// and where the surface does not bulge towards that side.
-    pub shadow_lift: [Vec3; 2],
+}
+
+/// A triangle hit's barycentric weights `[w, u, v]` of its corners,
+/// clamped into the triangle.
+fn barycentrics(hit: &Hit) -> [f32; 3] {
+    let u = hit.u.clamp(0.0, 1.0);
+    let v = hit.v.clamp(0.0, 1.0 - u);
+    [(1.0 - u - v).max(0.0), u, v]
 }
 
 /// The shadow-terminator offset of Hanika ("Hacking the Shadow
@@ -350,6 +352,38 @@ impl Scene {
         }
     }
 
+    /// The shading normals at the corners of triangle `p` (its crease
+    /// corners where a crease split them).
+    fn vertex_normals(&self, p: usize) -> [Vec3; 3] {
+        match self.mesh.corner_normals.get(p) {
+            Some(corners) => *corners,
+            None => self.mesh.indices[p].map(|i| self.mesh.normals[i as usize]),
+        }
+    }
+
+    /// Where shadow rays leave a triangle hit at `position` (from
+    /// [`Scene::surface_point`]) on the side `facing` (the geometric
+    /// normal turned towards the viewer), as an offset from it: the point
+    /// lifted onto the smooth surface the vertex normals describe (see
+    /// [`terminator_lift`]). Zero on flat shading, spheres, and where the
+    /// surface does not bulge towards that side. Asked only where a path
+    /// samples lights, not for every hit.
+    pub fn shadow_lift(&self, hit: &Hit, position: Vec3, facing: Vec3) -> Vec3 {
+        let p = hit.prim as usize;
+        if p >= self.mesh.len() || self.normal_mode == NormalMode::Flat {
+            return Vec3::ZERO;
+        }
+        let weights = barycentrics(hit);
+        let normals = self.vertex_normals(p);
+        let n = normals[0] * weights[0] + normals[1] * weights[1] + normals[2] * weights[2];
+        let normals = if n.dot(facing) < 0.0 {
+            normals.map(|x| -x)
+        } else {
+            normals
+        };
+        terminator_lift(position, self.mesh.corners(p), normals, weights)
+    }
+
     /// Shading data for `hit` of `ray`. Both backends' hits go through
     /// here, so shading never depends on the backend. The position is
     /// recomputed from the hit rather than taken as `o + t d` (pbrt-v4's
@@ -361,9 +395,7 @@ impl Scene {
         let p = hit.prim as usize;
         if p < self.mesh.len() {
             let [a, b, c] = self.mesh.corners(p);
-            let u = hit.u.clamp(0.0, 1.0);
-            let v = hit.v.clamp(0.0, 1.0 - u);
-            let w = (1.0 - u - v).max(0.0);
+            let [w, u, v] = barycentrics(hit);
             let size = (b - a)
                 .abs()
                 .max((c - a).abs())
@@ -391,31 +423,18 @@ impl Scene {
             let error =
                 gamma(9) * ((a * w).abs() + (b * u).abs() + (c * v).abs()) + Vec3::splat(margin);
             let ng = self.geometric_normal(ray, hit);
-            let (ns, shadow_lift) = match self.normal_mode {
-                NormalMode::Flat => (ng, [Vec3::ZERO; 2]),
+            let ns = match self.normal_mode {
+                NormalMode::Flat => ng,
                 NormalMode::Smooth => {
-                    let normals = match self.mesh.corner_normals.get(p) {
-                        Some(corners) => *corners,
-                        None => self.mesh.indices[p].map(|i| self.mesh.normals[i as usize]),
-                    };
-                    let [na, nb, nc] = normals;
+                    let [na, nb, nc] = self.vertex_normals(p);
                     let n = (na * w + nb * u + nc * v).normalize_or_zero();
-                    let ns = if n == Vec3::ZERO {
+                    if n == Vec3::ZERO {
                         ng
                     } else if n.dot(ng) < 0.0 {
                         -n
                     } else {
                         n
-                    };
-                    // The vertex normals as seen from ng's side, and from
-                    // the other.
-                    let front = if n.dot(ng) < 0.0 {
-                        normals.map(|x| -x)
-                    } else {
-                        normals
-                    };
-                    let lift = |normals| terminator_lift(position, [a, b, c], normals, [w, u, v]);
-                    (ns, [lift(front), lift(front.map(|x| -x))])
+                    }
                 }
             };
             SurfacePoint {
@@ -424,7 +443,6 @@ impl Scene {
                 geometric_normal: ng,
                 shading_normal: ns,
                 material: self.mesh.materials[p],
-                shadow_lift,
             }
         } else {
             let s = &self.spheres[p - self.mesh.len()];
@@ -440,7 +458,6 @@ impl Scene {
                 geometric_normal: n,
                 shading_normal: n,
                 material: s.material,
-                shadow_lift: [Vec3::ZERO; 2],
             }
         }
     }

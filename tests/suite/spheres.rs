@@ -84,20 +84,11 @@ fn an_analytic_sphere_renders_as_its_fine_tessellation_does() {
         threads: 2,
         ..RenderSettings::default()
     };
-    let analytic = render(
-        &scene,
-        &BackendConfig::NATIVE.build(&scene).unwrap(),
-        &settings,
-        &Silent,
-    )
-    .film;
-    let tess = render(
-        &mesh,
-        &BackendConfig::NATIVE.build(&mesh).unwrap(),
-        &settings,
-        &Silent,
-    )
-    .film;
+    let film_of = |s: &Scene| {
+        let accel = BackendConfig::NATIVE.build(s).expect("builds");
+        render(s, &accel, &settings, &Silent).film
+    };
+    let (analytic, tess) = (film_of(&scene), film_of(&mesh));
     for (k, s) in scene.spheres.iter().enumerate() {
         let pixels = sphere_pixels(&scene, &settings, s.center, s.radius);
         let sum = |film: &hybrid::render::film::Film| -> f64 {

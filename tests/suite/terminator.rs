@@ -99,7 +99,9 @@ fn a_coarse_smooth_sphere_shows_no_terminator_staircase_and_keeps_cast_shadows()
                     // Shadow rays leave from the lifted point, so the
                     // shadow's edge may move by as much as the lift (which
                     // shrinks with the square of the facets' size).
-                    let sag = sp.shadow_lift[0].length();
+                    let sag = scene
+                        .shadow_lift(&hit, sp.position, sp.geometric_normal)
+                        .length();
                     match on_occluder(sp.position) {
                         Some((s, t)) if s.abs().max(t.abs()) < HALF - sag => {
                             shadowed += 1;
