@@ -387,9 +387,8 @@ impl<'a, A: Accel> Integrator<'a, A> {
                 m,
             };
             if !is_specular(m) {
-                let key = rng.next_u32();
+                let mut light_rng = rng.split();
                 if s.counts(depth + 1) {
-                    let mut light_rng = Rng::new(u64::from(key), u64::from(depth));
                     total += beta * self.direct(&vertex, s, &mut light_rng, counters);
                 }
             }
