@@ -8,7 +8,7 @@ use super::embree::{BuildQuality, Embree3, Embree4, EmbreeAccel, EmbreeOptions, 
 use super::native::build::BuildMethod;
 use super::native::triangle::TriangleMode;
 use super::native::{NativeBvh, NativeOptions};
-use super::{brute, Accel, AccelError, AccelStats, TraceCounters};
+use super::{brute, Accel, AccelError, AccelStats, BatchMode, TraceCounters};
 use crate::choice::Choice;
 use crate::geom::ray::FlatRay;
 use crate::geom::{Hit, Ray};
@@ -44,12 +44,36 @@ impl Accel for Backend<'_> {
         }
     }
 
-    fn closest_hits(&self, rays: &[Ray], out: &mut Vec<Option<Hit>>) {
+    fn closest_hits(&self, rays: &[Ray], out: &mut [Option<Hit>], counters: &mut TraceCounters) {
         match self {
-            Backend::Native(a) => a.closest_hits(rays, out),
-            Backend::Embree3(a) => a.closest_hits(rays, out),
-            Backend::Embree4(a) => a.closest_hits(rays, out),
-            Backend::Brute(a) => a.closest_hits(rays, out),
+            Backend::Native(a) => a.closest_hits(rays, out, counters),
+            Backend::Embree3(a) => a.closest_hits(rays, out, counters),
+            Backend::Embree4(a) => a.closest_hits(rays, out, counters),
+            Backend::Brute(a) => a.closest_hits(rays, out, counters),
+        }
+    }
+
+    fn trace_batched_as_c_caller(
+        &self,
+        rays: &[FlatRay],
+        occluded: bool,
+        mode: BatchMode,
+        coherent: bool,
+    ) -> Option<usize> {
+        match self {
+            Backend::Native(a) => a.trace_batched_as_c_caller(rays, occluded, mode, coherent),
+            Backend::Embree3(a) => a.trace_batched_as_c_caller(rays, occluded, mode, coherent),
+            Backend::Embree4(a) => a.trace_batched_as_c_caller(rays, occluded, mode, coherent),
+            Backend::Brute(a) => a.trace_batched_as_c_caller(rays, occluded, mode, coherent),
+        }
+    }
+
+    fn occluded_all(&self, rays: &[Ray], out: &mut [bool], counters: &mut TraceCounters) {
+        match self {
+            Backend::Native(a) => a.occluded_all(rays, out, counters),
+            Backend::Embree3(a) => a.occluded_all(rays, out, counters),
+            Backend::Embree4(a) => a.occluded_all(rays, out, counters),
+            Backend::Brute(a) => a.occluded_all(rays, out, counters),
         }
     }
 

@@ -70,7 +70,8 @@ pub struct AccelStats {
     /// What was built, in words (Embree's version and ISA, build quality;
     /// the native triangle test and leaf size).
     pub details: String,
-    /// How [`Accel::closest_hits`] traces a batch, in words.
+    /// How [`Accel::closest_hits`] and [`Accel::occluded_all`] trace a
+    /// batch, in words.
     pub batch_call: &'static str,
 }
 
@@ -100,13 +101,23 @@ pub trait Accel: Sync + Send {
     fn closest_hit(&self, ray: &Ray, counters: &mut TraceCounters) -> Option<Hit>;
     /// True if anything lies in `[ray.t_min, ray.t_max]`.
     fn occluded(&self, ray: &Ray, counters: &mut TraceCounters) -> bool;
-    /// The closest hits of a batch of rays, one answer per ray in `out`
-    /// (cleared first): the same answers as [`Accel::closest_hit`], through
-    /// the backend's batched mode where it has one.
-    fn closest_hits(&self, rays: &[Ray], out: &mut Vec<Option<Hit>>) {
-        let mut counters = TraceCounters::default();
-        out.clear();
-        out.extend(rays.iter().map(|r| self.closest_hit(r, &mut counters)));
+    /// The closest hits of a batch of rays, answer `i` into `out[i]` (the
+    /// caller's buffer, as long as `rays`; no allocation per call): the
+    /// same answers as [`Accel::closest_hit`], through the backend's
+    /// batched mode where it has one (native and Embree: packets).
+    fn closest_hits(&self, rays: &[Ray], out: &mut [Option<Hit>], counters: &mut TraceCounters) {
+        debug_assert_eq!(rays.len(), out.len());
+        for (ray, answer) in rays.iter().zip(out) {
+            *answer = self.closest_hit(ray, counters);
+        }
+    }
+    /// Whether each ray of a batch is blocked, as [`Accel::occluded`], into
+    /// `out` like [`Accel::closest_hits`].
+    fn occluded_all(&self, rays: &[Ray], out: &mut [bool], counters: &mut TraceCounters) {
+        debug_assert_eq!(rays.len(), out.len());
+        for (ray, answer) in rays.iter().zip(out) {
+            *answer = self.occluded(ray, counters);
+        }
     }
     fn stats(&self) -> AccelStats;
     /// The backend's library traced as a plain C program calls it, one
@@ -117,6 +128,43 @@ pub trait Accel: Sync + Send {
     fn trace_as_c_caller(&self, rays: &[FlatRay], occluded: bool) -> Option<usize> {
         let _ = (rays, occluded);
         None
+    }
+    /// As [`Accel::trace_as_c_caller`], in the library's batched `mode`
+    /// with the coherent hint or not, where the library has that mode.
+    fn trace_batched_as_c_caller(
+        &self,
+        rays: &[FlatRay],
+        occluded: bool,
+        mode: BatchMode,
+        coherent: bool,
+    ) -> Option<usize> {
+        let _ = (rays, occluded, mode, coherent);
+        None
+    }
+}
+
+/// A library's batched query mode, as a plain C caller uses it
+/// ([`Accel::trace_batched_as_c_caller`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum BatchMode {
+    /// Packets of 8 rays (Embree: `rtcIntersect8` / `rtcOccluded8`).
+    Packet8,
+    /// Packets of 16 (`rtcIntersect16` / `rtcOccluded16`).
+    Packet16,
+    /// A stream of rays in one call (Embree 3's `rtcIntersect1M` /
+    /// `rtcOccluded1M`).
+    Stream,
+}
+
+impl BatchMode {
+    pub const ALL: [BatchMode; 3] = [BatchMode::Packet8, BatchMode::Packet16, BatchMode::Stream];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            BatchMode::Packet8 => "packet8",
+            BatchMode::Packet16 => "packet16",
+            BatchMode::Stream => "stream",
+        }
     }
 }
 

@@ -15,7 +15,7 @@ use crate::geom::ray::FlatRay;
 use crate::geom::Ray;
 pub use crate::report::measure::Settle;
 use crate::report::measure::{ray_sets, RAY_KINDS};
-pub use crate::report::paired::{compare, table, PairedRow};
+pub use crate::report::paired::{batched_table, compare, compare_batched, table, PairedRow};
 use crate::scene::builder::SceneBuilder;
 use crate::scene::{Material, NormalMode, Scene};
 use glam::Vec3;
@@ -86,8 +86,9 @@ pub fn scene_of(triangles: &[[f32; 9]], name: &str) -> Scene {
 }
 
 /// Replays every ray set in `dir` on every compared backend, one thread,
-/// each Embree through its wrapper and as a plain C caller.
-pub fn replay(dir: &Path, settle: Settle) -> Result<Vec<PairedRow>, String> {
+/// each Embree through its wrapper and as a plain C caller; or, `batched`,
+/// in every batched mode ([`compare_batched`]).
+pub fn replay(dir: &Path, settle: Settle, batched: bool) -> Result<Vec<PairedRow>, String> {
     let triangles = file::read_triangles(&dir.join(TRIANGLES)).map_err(|e| e.to_string())?;
     let scene = scene_of(&triangles, &dir.display().to_string());
     let backends = compared()
@@ -107,7 +108,11 @@ pub fn replay(dir: &Path, settle: Settle) -> Result<Vec<PairedRow>, String> {
         // runs moves native's speed (docs/design.md, Measuring), so the
         // two must run alike to agree.
         rows.push(crate::report::measure::on_threads(1, || {
-            compare(kind, query, &flat, &refs, settle)
+            if batched {
+                compare_batched(kind, query, &flat, &refs, settle)
+            } else {
+                compare(kind, query, &flat, &refs, settle)
+            }
         }));
     }
     if rows.is_empty() {

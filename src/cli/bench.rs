@@ -7,7 +7,7 @@ use std::path::PathBuf;
 use clap::{Args, Subcommand};
 
 use super::SceneInput;
-use crate::bench::{export, replay, table};
+use crate::bench::{batched_table, export, replay, table};
 use crate::report::measure::{on_threads, Settle};
 use crate::scene::NormalMode;
 
@@ -49,6 +49,10 @@ pub struct BenchArgs {
     /// (95% interval of the median).
     #[arg(long, default_value_t = 3.0)]
     pub within: f64,
+    /// Compare the batched modes instead: native packets against Embree's
+    /// packets of 8 and 16 and Embree 3's stream, as a plain C caller.
+    #[arg(long)]
+    pub batched: bool,
 }
 
 pub fn run_rays(args: &RaysArgs) -> Result<(), String> {
@@ -99,12 +103,17 @@ pub fn run_bench(args: &BenchArgs) -> Result<(), String> {
         max: args.max_rounds as usize,
         within: args.within / 100.0,
     };
-    let rows = on_threads(1, || replay(&args.dir, settle))?;
+    let rows = on_threads(1, || replay(&args.dir, settle, args.batched))?;
     say!(
         "Replay of {} on one thread: Mrays/s by the thread's CPU time (median and range of the rounds); every run of a kind interleaved, rounds until each ratio to native is known within ±{}% (95% interval of the median of the per-round ratios) or --max-rounds (then ⚠).\n",
         args.dir.display(),
         args.within
     );
-    say!("{}", table(&rows).markdown());
+    let table = if args.batched {
+        batched_table(&rows)
+    } else {
+        table(&rows)
+    };
+    say!("{}", table.markdown());
     Ok(())
 }

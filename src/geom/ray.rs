@@ -5,8 +5,11 @@
 
 use glam::{Vec3, Vec3A};
 
-/// A ray `origin + t * dir` for `t` in `[t_min, t_max]`.
+/// A ray `origin + t * dir` for `t` in `[t_min, t_max]`. Laid out as a
+/// [`FlatRay`] (eight floats), which packet traversal reads eight rays at
+/// a time.
 #[derive(Clone, Copy, Debug, PartialEq)]
+#[repr(C)]
 pub struct Ray {
     pub origin: Vec3,
     pub dir: Vec3,
@@ -18,6 +21,8 @@ pub struct Ray {
 /// (the layout of exported ray files, `docs/rays.md`, and of the plain-C
 /// Embree driver).
 pub type FlatRay = [f32; 8];
+
+const _: () = assert!(std::mem::size_of::<Ray>() == std::mem::size_of::<FlatRay>());
 
 /// The closest hit along a ray: what every backend reports, and all it
 /// reports. The shading data (position, normals, material) are derived

@@ -129,6 +129,33 @@ pub fn trace_all<A: Accel>(accel: &A, rays: &[Ray], query: Query, threads: usize
     rays.par_chunks(256).with_max_len(4).map(chunk).sum()
 }
 
+/// As [`trace_all`], through the backend's batch queries
+/// ([`Accel::closest_hits`], [`Accel::occluded_all`]) 256 rays at a time,
+/// answers into buffers on the stack.
+pub fn trace_all_batched<A: Accel>(accel: &A, rays: &[Ray], query: Query, threads: usize) -> usize {
+    const BATCH: usize = 256;
+    let chunk = |rays: &[Ray]| {
+        let mut counters = TraceCounters::default();
+        let n = rays.len();
+        match query {
+            Query::Closest => {
+                let mut out = [None; BATCH];
+                accel.closest_hits(rays, &mut out[..n], &mut counters);
+                out[..n].iter().filter(|h| h.is_some()).count()
+            }
+            Query::Occluded => {
+                let mut out = [false; BATCH];
+                accel.occluded_all(rays, &mut out[..n], &mut counters);
+                out[..n].iter().filter(|&&b| b).count()
+            }
+        }
+    };
+    if threads <= 1 {
+        return rays.chunks(BATCH).map(chunk).sum();
+    }
+    rays.par_chunks(BATCH).with_max_len(4).map(chunk).sum()
+}
+
 /// Million rays per second (median and range over repeats) of `accel` on
 /// `rays`.
 pub fn mrays<A: Accel>(

@@ -5,9 +5,9 @@
 //! rounds until every ratio to native is known within the bound
 //! ([`Settle`]). `hybrid bench` and the report's trace tables both use it.
 
-use super::measure::{time_settled, trace_all, Measured, Query, Settle};
+use super::measure::{time_settled, trace_all, trace_all_batched, Measured, Query, Settle};
 use super::table::{Cell, Flag, Table};
-use crate::accel::Accel;
+use crate::accel::{Accel, BatchMode};
 use crate::geom::ray::FlatRay;
 use crate::geom::Ray;
 
@@ -155,6 +155,149 @@ pub fn table(rows: &[PairedRow]) -> Table {
             let own = r.own(c.backend).map_or(f64::NAN, |o| o.cpu.median);
             cells.push(Cell::Ratio(native / c.cpu.median).flagged(unsettled));
             cells.push(Cell::Ratio(own / c.cpu.median).flagged(unsettled));
+        }
+        cells.push(Cell::Count(r.rounds as u64));
+        cells.push(Cell::Text(format!("±{:.1}%", r.widest * 100.0)));
+        table.row(cells);
+    }
+    table
+}
+
+/// Whether Embree's batched modes get the coherent hint on rays of `kind`:
+/// the camera rays and the light rays of the camera's first hits.
+pub fn coherent_kind(kind: &str) -> bool {
+    kind.starts_with("camera") || kind == "light"
+}
+
+/// Times `flat` in every mode each backend has: native one ray at a time
+/// and in packets ([`Accel::closest_hits`]); each Embree as a plain C
+/// caller, one ray at a time and in each batched mode its version has
+/// (packets of 8 and 16; Embree 3's stream), the coherent hint on camera
+/// and light rays. Interleaved until the ratios to native single rays
+/// settle.
+pub fn compare_batched<A: Accel>(
+    kind: &str,
+    query: Query,
+    flat: &[FlatRay],
+    backends: &[(String, &A)],
+    settle: Settle,
+) -> PairedRow {
+    let rays: Vec<Ray> = flat.iter().map(Ray::from_flat).collect();
+    let occluded = query == Query::Occluded;
+    let coherent = coherent_kind(kind);
+    // (name, backend index, as a C caller, batched mode; None: single)
+    #[derive(Clone)]
+    enum Mode {
+        Single,
+        Batch,
+        C(Option<BatchMode>),
+    }
+    let mut runs: Vec<(String, usize, Mode)> = Vec::new();
+    for (b, (label, accel)) in backends.iter().enumerate() {
+        if accel.trace_as_c_caller(&[], occluded).is_some() {
+            runs.push((format!("{label} plain C"), b, Mode::C(None)));
+            for mode in BatchMode::ALL {
+                if accel
+                    .trace_batched_as_c_caller(&[], occluded, mode, coherent)
+                    .is_some()
+                {
+                    runs.push((format!("{label} {}", mode.name()), b, Mode::C(Some(mode))));
+                }
+            }
+        } else {
+            runs.push((label.clone(), b, Mode::Single));
+            runs.push((format!("{label} packets"), b, Mode::Batch));
+        }
+    }
+    let mut hits = 0;
+    let timed = time_settled(runs.len(), settle, |i| {
+        let (_, b, mode) = &runs[i];
+        let accel = backends[*b].1;
+        let n = match mode {
+            Mode::Single => trace_all(accel, &rays, query, 1),
+            Mode::Batch => trace_all_batched(accel, &rays, query, 1),
+            Mode::C(None) => accel.trace_as_c_caller(flat, occluded).unwrap_or(0),
+            Mode::C(Some(m)) => accel
+                .trace_batched_as_c_caller(flat, occluded, *m, coherent)
+                .unwrap_or(0),
+        };
+        if i == 0 {
+            hits = n;
+        }
+        std::hint::black_box(n);
+    });
+    let rate = |m: &Measured| Measured::per_second_millions(flat.len(), m);
+    PairedRow {
+        kind: kind.to_string(),
+        rays: flat.len(),
+        hits,
+        runs: runs
+            .into_iter()
+            .enumerate()
+            .map(|(i, (name, backend, mode))| Run {
+                name,
+                backend,
+                plain_c: matches!(mode, Mode::C(_)),
+                cpu: rate(&timed.cpu[i]),
+                wall: rate(&timed.wall[i]),
+            })
+            .collect(),
+        rounds: timed.rounds,
+        settled: timed.settled,
+        widest: timed.widest,
+    }
+}
+
+/// The batched replay as a table: Mrays/s by CPU time per run, then native
+/// packets over native single rays and over Embree's best run (any mode),
+/// naming it.
+pub fn batched_table(rows: &[PairedRow]) -> Table {
+    let Some(first) = rows.first() else {
+        return Table::new([("kind", "rays")]);
+    };
+    let key = |n: &str| n.replace(' ', "_");
+    let mut columns: Vec<(String, String)> = vec![
+        ("kind".into(), "rays".into()),
+        ("rays".into(), "count".into()),
+    ];
+    for run in &first.runs {
+        columns.push((
+            format!("{}_mrays", key(&run.name)),
+            format!("{} Mrays/s", run.name),
+        ));
+    }
+    columns.push((
+        "packets_over_single".into(),
+        "native packets / single".into(),
+    ));
+    columns.push((
+        "packets_over_best_embree".into(),
+        "native packets / best Embree".into(),
+    ));
+    columns.push(("best_embree".into(), "best Embree".into()));
+    columns.push(("rounds".into(), "rounds".into()));
+    columns.push(("interval".into(), "ratio interval".into()));
+    let mut table = Table::new(columns);
+    for r in rows {
+        let mut cells = vec![Cell::Text(r.kind.clone()), Cell::Count(r.rays as u64)];
+        cells.extend(r.runs.iter().map(|run| Cell::Measured(run.cpu, 2)));
+        let unsettled = (!r.settled).then_some(Flag::Noisy);
+        let (single, packets) = (r.runs[0].cpu.median, r.runs[1].cpu.median);
+        let best = r
+            .runs
+            .iter()
+            .filter(|run| run.plain_c)
+            .max_by(|a, b| a.cpu.median.total_cmp(&b.cpu.median));
+        cells.push(Cell::Ratio(packets / single).flagged(unsettled));
+        match best {
+            Some(b) => {
+                cells.push(Cell::Ratio(packets / b.cpu.median).flagged(unsettled));
+                cells.push(Cell::Text(b.name.clone()));
+            }
+            None => {
+                cells.push(Cell::Text("-".into()));
+                cells.push(Cell::Text("-".into()));
+            }
         }
         cells.push(Cell::Count(r.rounds as u64));
         cells.push(Cell::Text(format!("±{:.1}%", r.widest * 100.0)));

@@ -16,7 +16,7 @@ use super::measure::{
 use super::paired::compare;
 use super::table::{Cell, Flag, Table};
 use crate::accel::config::{build_variants, compared};
-use crate::accel::{Accel, AccelStats, Backend, BackendConfig, TreeFacts};
+use crate::accel::{Accel, AccelStats, Backend, BackendConfig, TraceCounters, TreeFacts};
 use crate::geom::ray::FlatRay;
 use crate::geom::Ray;
 use crate::render::integrator::{PathSettings, Shading};
@@ -265,11 +265,14 @@ pub fn measure(
         .collect::<Vec<_>>();
     // Each backend's batch call on the same camera rays, one thread.
     let camera = &sets[0].rays;
-    let mut answers = Vec::with_capacity(camera.len());
+    let mut answers = vec![None; camera.len()];
     let batch = backends
         .iter()
         .map(|b| {
-            let t = time_repeats(budget.repeats, || b.closest_hits(camera, &mut answers));
+            let mut counters = TraceCounters::default();
+            let t = time_repeats(budget.repeats, || {
+                b.closest_hits(camera, &mut answers, &mut counters)
+            });
             (
                 b.stats().batch_call,
                 Measured::per_second_millions(camera.len(), &t),

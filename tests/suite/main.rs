@@ -4,6 +4,7 @@
 
 mod common;
 
+mod batches;
 mod bvh;
 mod camera;
 mod cli;

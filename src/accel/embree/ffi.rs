@@ -18,7 +18,7 @@ use std::ffi::{c_char, c_void, CString};
 use std::marker::PhantomData;
 
 use super::library::{self, ErrorSink, RawHit};
-use super::plain_c::CFunctions;
+use super::plain_c::{Answers, BatchMode, CFunctions};
 use super::{BuildQuality, SceneOptions};
 use crate::geom::ray::FlatRay;
 
@@ -107,15 +107,8 @@ pub unsafe trait Api: Sync + 'static {
     unsafe fn intersect1(&self, scene: Handle, ray: RawRay) -> Option<RawHit>;
     /// `rtcOccluded1` on a committed scene, incoherent.
     unsafe fn occluded1(&self, scene: Handle, ray: RawRay) -> bool;
-    /// The version's fastest call for a batch of coherent rays.
-    unsafe fn intersect_coherent(
-        &self,
-        scene: Handle,
-        rays: &[RawRay],
-        out: &mut Vec<Option<RawHit>>,
-    );
-    /// The version's `rtcIntersect1` and `rtcOccluded1` as plain C calls
-    /// them, for the C driver (`plain_c.rs`).
+    /// The version's query functions (single rays, packets, stream) as
+    /// plain C calls them, for the C driver (`plain_c.rs`).
     fn c_functions(&self) -> CFunctions;
 }
 
@@ -437,17 +430,32 @@ impl<A: Api> Scene<'_, A> {
         unsafe { self.api.occluded1(self.raw, ray) }
     }
 
-    /// Closest hits of a batch of coherent rays, one answer per ray in `out`.
-    pub fn intersect_coherent(&self, rays: &[RawRay], out: &mut Vec<Option<RawHit>>) {
-        // SAFETY: as in `intersect`.
-        unsafe { self.api.intersect_coherent(self.raw, rays, out) }
-    }
-
     /// `rays` traced by the C driver, one `rtcIntersect1` (or
     /// `rtcOccluded1`) per ray as a C program makes them: the number of
     /// rays that hit and the sum of the hit primitive ids.
     pub fn trace_as_c_caller(&self, rays: &[FlatRay], occluded: bool) -> (usize, u64) {
         super::plain_c::trace(self.api.c_functions(), self.raw, rays, occluded)
+    }
+
+    /// `rays` traced by the C driver in one of Embree's batched modes, as
+    /// a C program calls it (`plain_c::trace_batched`).
+    pub fn trace_batched(
+        &self,
+        mode: BatchMode,
+        hint: u32,
+        rays: &[FlatRay],
+        occluded: bool,
+        answers: Answers,
+    ) -> Option<(usize, u64)> {
+        super::plain_c::trace_batched(
+            self.api.c_functions(),
+            self.raw,
+            mode,
+            hint,
+            rays,
+            occluded,
+            answers,
+        )
     }
 }
 

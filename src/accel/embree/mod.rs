@@ -36,7 +36,9 @@ use std::time::Instant;
 use crate::choice::Choice;
 
 use self::ffi::{Api, Device, Scene as EmbreeScene, SceneBuilder};
-use self::library::RawHit;
+use self::library::{RawHit, INVALID_GEOMETRY_ID};
+pub use self::plain_c::BatchMode;
+use self::plain_c::{Answers, CHit, COHERENT};
 pub use self::sys3::Embree3;
 pub use self::sys4::Embree4;
 use super::{Accel, AccelError, AccelStats, TraceCounters};
@@ -124,14 +126,11 @@ impl Default for EmbreeOptions {
 /// One Embree version's table, as the backend is generic over it.
 pub trait Version: Api + Sized {
     const VERSION: EmbreeVersion;
-    /// How this version traces a batch ([`Accel::closest_hits`]).
-    const BATCH_CALL: &'static str;
     fn api() -> Result<&'static Self, String>;
 }
 
 impl Version for Embree3 {
     const VERSION: EmbreeVersion = EmbreeVersion::V3;
-    const BATCH_CALL: &'static str = "rtcIntersect1M stream, coherent flag";
     fn api() -> Result<&'static Self, String> {
         sys3::api()
     }
@@ -139,7 +138,6 @@ impl Version for Embree3 {
 
 impl Version for Embree4 {
     const VERSION: EmbreeVersion = EmbreeVersion::V4;
-    const BATCH_CALL: &'static str = "rtcIntersect1 loop, coherent flag";
     fn api() -> Result<&'static Self, String> {
         sys4::api()
     }
@@ -155,6 +153,10 @@ pub struct EmbreeAccel<'s, V: Version> {
     options: EmbreeOptions,
     build_ms: f64,
     primitives: usize,
+    /// How the trait's batch queries trace: packets of the device's
+    /// native width (16 with AVX-512, else 8), or `None` (4-wide SSE
+    /// devices): single rays.
+    batch: Option<BatchMode>,
 }
 
 impl<'s, V: Version> EmbreeAccel<'s, V> {
@@ -195,7 +197,13 @@ impl<'s, V: Version> EmbreeAccel<'s, V> {
         }
         let committed = builder.commit(&device).map_err(AccelError::Embree)?;
         let build_ms = start.elapsed().as_secs_f64() * 1e3;
+        let batch = match device.native_packet_width() {
+            16 => Some(BatchMode::Packet16),
+            8 => Some(BatchMode::Packet8),
+            _ => None,
+        };
         Ok(EmbreeAccel {
+            batch,
             scene: committed,
             device,
             triangle_count: scene.mesh.len() as u32,
@@ -256,6 +264,19 @@ fn raw_ray(r: &Ray) -> ffi::RawRay {
     }
 }
 
+/// Rays per call of the C driver from the trait's batch queries.
+const CHUNK: usize = 64;
+
+/// Up to [`CHUNK`] rays in the C driver's layout.
+fn flat_rays(rays: &[Ray]) -> [FlatRay; CHUNK] {
+    let mut flat = [[0.0f32; 8]; CHUNK];
+    for (f, r) in flat.iter_mut().zip(rays) {
+        let (o, d, t_min, t_max) = raw_ray(r);
+        *f = [o[0], o[1], o[2], d[0], d[1], d[2], t_min, t_max];
+    }
+    flat
+}
+
 impl<V: Version> Accel for EmbreeAccel<'_, V> {
     #[inline]
     fn closest_hit(&self, ray: &Ray, counters: &mut TraceCounters) -> Option<Hit> {
@@ -286,19 +307,82 @@ impl<V: Version> Accel for EmbreeAccel<'_, V> {
         ))
     }
 
-    /// One call of the version's fastest coherent mode for the whole batch
-    /// (Embree 3: the `rtcIntersect1M` stream; Embree 4: single rays with
-    /// the coherent flag).
-    fn closest_hits(&self, rays: &[Ray], out: &mut Vec<Option<Hit>>) {
-        let batch: Vec<ffi::RawRay> = rays.iter().map(raw_ray).collect();
-        let mut raw = Vec::with_capacity(rays.len());
-        self.scene.intersect_coherent(&batch, &mut raw);
-        out.clear();
-        out.extend(raw.iter().map(|h| h.as_ref().map(|h| self.to_hit(h))));
+    /// Packets of the device's native width, filled and called by the C
+    /// driver with the coherent hint, 64 rays per call from buffers on the
+    /// stack.
+    fn closest_hits(&self, rays: &[Ray], out: &mut [Option<Hit>], counters: &mut TraceCounters) {
+        debug_assert_eq!(rays.len(), out.len());
+        let Some(mode) = self.batch else {
+            for (ray, answer) in rays.iter().zip(out) {
+                *answer = self.closest_hit(ray, counters);
+            }
+            return;
+        };
+        counters.rays += rays.len() as u64;
+        for (rays, out) in rays.chunks(CHUNK).zip(out.chunks_mut(CHUNK)) {
+            let n = rays.len();
+            let flat = flat_rays(rays);
+            let mut hits = [CHit::default(); CHUNK];
+            let answers = Answers::Closest(&mut hits[..n]);
+            let traced = self
+                .scene
+                .trace_batched(mode, COHERENT, &flat[..n], false, answers);
+            debug_assert!(traced.is_some(), "the device reported {mode:?}");
+            for (answer, h) in out.iter_mut().zip(&hits[..n]) {
+                *answer = (traced.is_some() && h.geom != INVALID_GEOMETRY_ID).then(|| {
+                    self.to_hit(&RawHit {
+                        t: h.t,
+                        geometry: h.geom,
+                        primitive: h.prim,
+                        u: h.u,
+                        v: h.v,
+                    })
+                });
+            }
+        }
+    }
+
+    /// As [`Self::closest_hits`], with `rtcOccluded8/16`.
+    fn occluded_all(&self, rays: &[Ray], out: &mut [bool], counters: &mut TraceCounters) {
+        debug_assert_eq!(rays.len(), out.len());
+        let Some(mode) = self.batch else {
+            for (ray, answer) in rays.iter().zip(out) {
+                *answer = self.occluded(ray, counters);
+            }
+            return;
+        };
+        counters.rays += rays.len() as u64;
+        for (rays, out) in rays.chunks(CHUNK).zip(out.chunks_mut(CHUNK)) {
+            let n = rays.len();
+            let flat = flat_rays(rays);
+            let mut blocked = [0u8; CHUNK];
+            let answers = Answers::Blocked(&mut blocked[..n]);
+            let traced = self
+                .scene
+                .trace_batched(mode, COHERENT, &flat[..n], true, answers);
+            debug_assert!(traced.is_some(), "the device reported {mode:?}");
+            for (answer, &b) in out.iter_mut().zip(&blocked[..n]) {
+                *answer = traced.is_some() && b != 0;
+            }
+        }
     }
 
     fn trace_as_c_caller(&self, rays: &[FlatRay], occluded: bool) -> Option<usize> {
         Some(self.scene.trace_as_c_caller(rays, occluded).0)
+    }
+
+    fn trace_batched_as_c_caller(
+        &self,
+        rays: &[FlatRay],
+        occluded: bool,
+        mode: BatchMode,
+        coherent: bool,
+    ) -> Option<usize> {
+        let hint = if coherent { COHERENT } else { 0 };
+        let traced = self
+            .scene
+            .trace_batched(mode, hint, rays, occluded, Answers::Count)?;
+        Some(traced.0)
     }
 
     fn stats(&self) -> AccelStats {
@@ -308,7 +392,11 @@ impl<V: Version> Accel for EmbreeAccel<'_, V> {
             build_ms: self.build_ms,
             memory_bytes: self.device.memory_bytes(),
             tree: None,
-            batch_call: V::BATCH_CALL,
+            batch_call: match self.batch {
+                Some(BatchMode::Packet16) => "rtcIntersect16/rtcOccluded16 packets, coherent hint",
+                Some(BatchMode::Packet8) => "rtcIntersect8/rtcOccluded8 packets, coherent hint",
+                _ => "single-ray loop (no native packets)",
+            },
             details: self.description(),
         }
     }

@@ -5,17 +5,45 @@
 
 use std::ffi::c_void;
 
+pub use crate::accel::BatchMode;
 use crate::geom::ray::FlatRay;
 
 /// A committed Embree scene (`RTCScene`).
 type Handle = *mut c_void;
 
-/// An Embree version's single-ray functions, as C function pointers.
+/// An Embree version's query functions, as C function pointers: single
+/// rays, packets of 8 and 16, and (Embree 3 only; null for 4) the stream.
 #[derive(Clone, Copy, Debug)]
 pub struct CFunctions {
     pub version: EmbreeMajor,
     pub intersect1: *const c_void,
     pub occluded1: *const c_void,
+    pub intersect8: *const c_void,
+    pub occluded8: *const c_void,
+    pub intersect16: *const c_void,
+    pub occluded16: *const c_void,
+    pub intersect1m: *const c_void,
+    pub occluded1m: *const c_void,
+}
+
+/// One answer of the C driver's batched modes (`struct hybrid_hit`):
+/// `geom` is `INVALID_GEOMETRY_ID` for a miss.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default)]
+pub struct CHit {
+    pub t: f32,
+    pub u: f32,
+    pub v: f32,
+    pub prim: u32,
+    pub geom: u32,
+}
+
+/// Where a batched call puts its answers.
+pub enum Answers<'a> {
+    /// Only count hits (and sum their primitive ids).
+    Count,
+    Closest(&'a mut [CHit]),
+    Blocked(&'a mut [u8]),
 }
 
 /// Which header layout the C driver uses.
@@ -52,6 +80,111 @@ extern "C" {
         rays: *const f32,
         n: usize,
     ) -> usize;
+    fn hybrid_embree_packets(
+        version: u32,
+        width: u32,
+        occluded: i32,
+        f: *const c_void,
+        scene: Handle,
+        hint: u32,
+        rays: *const f32,
+        n: usize,
+        out: *mut CHit,
+        blocked: *mut u8,
+        checksum: *mut u64,
+    ) -> usize;
+    fn hybrid_embree3_stream(
+        occluded: i32,
+        f: *const c_void,
+        scene: Handle,
+        hint: u32,
+        rays: *const f32,
+        n: usize,
+        out: *mut CHit,
+        blocked: *mut u8,
+        checksum: *mut u64,
+    ) -> usize;
+}
+
+/// The query hint both versions share the value of: Embree 3's
+/// `RTC_INTERSECT_CONTEXT_FLAG_COHERENT`, Embree 4's
+/// `RTC_RAY_QUERY_FLAG_COHERENT`.
+pub const COHERENT: u32 = 1;
+
+/// Traces `rays` in `mode` on the committed `scene` of the version whose
+/// functions are `c`, with the query `hint` (0 or [`COHERENT`]): the hit
+/// (or blocked) count and the sum of hit primitive ids, or `None` when
+/// this version lacks the mode. Answers go where `answers` says; its
+/// slice must be as long as `rays`, and match `occluded`.
+pub(super) fn trace_batched(
+    c: CFunctions,
+    scene: Handle,
+    mode: BatchMode,
+    hint: u32,
+    rays: &[FlatRay],
+    occluded: bool,
+    answers: Answers,
+) -> Option<(usize, u64)> {
+    let (out, blocked) = match answers {
+        Answers::Count => (std::ptr::null_mut(), std::ptr::null_mut()),
+        Answers::Closest(o) if !occluded && o.len() == rays.len() => {
+            (o.as_mut_ptr(), std::ptr::null_mut())
+        }
+        Answers::Blocked(b) if occluded && b.len() == rays.len() => {
+            (std::ptr::null_mut(), b.as_mut_ptr())
+        }
+        _ => return None,
+    };
+    let f = match (mode, occluded) {
+        (BatchMode::Packet8, false) => c.intersect8,
+        (BatchMode::Packet8, true) => c.occluded8,
+        (BatchMode::Packet16, false) => c.intersect16,
+        (BatchMode::Packet16, true) => c.occluded16,
+        (BatchMode::Stream, false) => c.intersect1m,
+        (BatchMode::Stream, true) => c.occluded1m,
+    };
+    if f.is_null() {
+        return None;
+    }
+    let version = match c.version {
+        EmbreeMajor::Three => 3,
+        EmbreeMajor::Four => 4,
+    };
+    let mut checksum = 0u64;
+    let (p, n) = (rays.as_ptr().cast::<f32>(), rays.len());
+    // SAFETY: `f` is this version's function for the mode (non-null), the
+    // layouts the C code fills are that version's (`version`), `scene` is
+    // a live committed scene of the library, `p` points at `n` rays of
+    // eight floats, and `out` / `blocked` are null or hold `n` answers.
+    let hits = unsafe {
+        match mode {
+            BatchMode::Stream => hybrid_embree3_stream(
+                occluded as i32,
+                f,
+                scene,
+                hint,
+                p,
+                n,
+                out,
+                blocked,
+                &mut checksum,
+            ),
+            BatchMode::Packet8 | BatchMode::Packet16 => hybrid_embree_packets(
+                version,
+                if mode == BatchMode::Packet8 { 8 } else { 16 },
+                occluded as i32,
+                f,
+                scene,
+                hint,
+                p,
+                n,
+                out,
+                blocked,
+                &mut checksum,
+            ),
+        }
+    };
+    (hits != usize::MAX).then_some((hits, checksum))
 }
 
 /// Traces `rays` on the committed `scene` of the version whose functions

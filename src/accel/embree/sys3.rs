@@ -230,32 +230,17 @@ unsafe impl Api for Embree3 {
         ray.tfar == f32::NEG_INFINITY
     }
 
-    /// One `rtcIntersect1M` stream call with the coherent flag.
-    unsafe fn intersect_coherent(
-        &self,
-        scene: Handle,
-        rays: &[RawRay],
-        out: &mut Vec<Option<RawHit>>,
-    ) {
-        let mut batch: Vec<raw::RTCRayHit> = rays.iter().map(|&r| make_rayhit(r)).collect();
-        let mut ctx = context(raw::RTC_INTERSECT_CONTEXT_FLAG_COHERENT);
-        // `batch` holds `batch.len()` initialised, 16-byte aligned RTCRayHit
-        // structs laid out with the stride given.
-        self.0.rtcIntersect1M(
-            scene as raw::RTCScene,
-            &mut ctx,
-            batch.as_mut_ptr(),
-            batch.len() as u32,
-            std::mem::size_of::<raw::RTCRayHit>(),
-        );
-        out.clear();
-        out.extend(batch.iter().map(raw_hit));
-    }
     fn c_functions(&self) -> CFunctions {
         CFunctions {
             version: EmbreeMajor::Three,
             intersect1: self.0.rtcIntersect1 as *const c_void,
             occluded1: self.0.rtcOccluded1 as *const c_void,
+            intersect8: self.0.rtcIntersect8 as *const c_void,
+            occluded8: self.0.rtcOccluded8 as *const c_void,
+            intersect16: self.0.rtcIntersect16 as *const c_void,
+            occluded16: self.0.rtcOccluded16 as *const c_void,
+            intersect1m: self.0.rtcIntersect1M as *const c_void,
+            occluded1m: self.0.rtcOccluded1M as *const c_void,
         }
     }
 }

@@ -94,6 +94,11 @@ table! {
     rtcReleaseGeometry: fn(Handle);
     rtcIntersect1: fn(Handle, *mut RayHit, *mut IntersectArguments);
     rtcOccluded1: fn(Handle, *mut e4::RTCRay, *mut OccludedArguments);
+    // Packets: only ever called by the C driver, which fills them.
+    rtcIntersect8: fn(*const i32, Handle, *mut c_void, *mut c_void);
+    rtcOccluded8: fn(*const i32, Handle, *mut c_void, *mut c_void);
+    rtcIntersect16: fn(*const i32, Handle, *mut c_void, *mut c_void);
+    rtcOccluded16: fn(*const i32, Handle, *mut c_void, *mut c_void);
 }
 
 /// `RTCRayHit` with room for the hit fields 4.3+ appends (`instPrimID`).
@@ -330,27 +335,18 @@ unsafe impl Api for Embree4 {
         ray.tfar == f32::NEG_INFINITY
     }
 
-    /// Embree 4 has no stream calls (`rtcIntersect1M` was removed): single
-    /// rays with the coherent flag, which Embree 4 takes as a hint.
-    unsafe fn intersect_coherent(
-        &self,
-        scene: Handle,
-        rays: &[RawRay],
-        out: &mut Vec<Option<RawHit>>,
-    ) {
-        out.clear();
-        let mut args = intersect_arguments(e4::RTCRayQueryFlags::COHERENT);
-        out.extend(rays.iter().map(|&r| {
-            let mut rayhit = make_rayhit(r);
-            (self.table.rtcIntersect1)(scene, &mut rayhit, &mut args);
-            raw_hit(&rayhit)
-        }));
-    }
     fn c_functions(&self) -> CFunctions {
         CFunctions {
             version: EmbreeMajor::Four,
             intersect1: self.table.rtcIntersect1 as *const c_void,
             occluded1: self.table.rtcOccluded1 as *const c_void,
+            intersect8: self.table.rtcIntersect8 as *const c_void,
+            occluded8: self.table.rtcOccluded8 as *const c_void,
+            intersect16: self.table.rtcIntersect16 as *const c_void,
+            occluded16: self.table.rtcOccluded16 as *const c_void,
+            // Embree 4 removed the stream calls.
+            intersect1m: std::ptr::null(),
+            occluded1m: std::ptr::null(),
         }
     }
 }

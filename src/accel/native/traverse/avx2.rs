@@ -138,10 +138,14 @@ unsafe fn push_any(node: &Node8, mask: u32, refs: *mut ChildRef, top: &mut usize
     node.child[31 - mask.leading_zeros() as usize]
 }
 
+/// From `start`: the root, or (packet traversal handing one ray over) a
+/// child reference read from one of the tree's nodes.
+///
 /// # Safety
-/// Needs the token's CPU features (AVX2, FMA, bit counting) and a
-/// non-empty `tree`; its type proves the rest (references in range,
-/// depth at most [`MAX_DEPTH`], so the stack holds every push).
+/// Needs the token's CPU features (AVX2, FMA, bit counting), a non-empty
+/// `tree` and a `start` as above; the tree's type proves the rest
+/// (references in range, depth at most [`MAX_DEPTH`], so the stack holds
+/// every push).
 #[target_feature(enable = "avx2,fma,popcnt,lzcnt,bmi1,bmi2")]
 pub unsafe fn closest<const ROBUST: bool, L: Leaves>(
     _cpu: Avx2,
@@ -150,6 +154,7 @@ pub unsafe fn closest<const ROBUST: bool, L: Leaves>(
     t_max: &mut f32,
     leaves: &mut L,
     work: &mut Work,
+    start: ChildRef,
 ) -> bool {
     let l = lanes::<ROBUST>(ray);
     let mut refs = [MaybeUninit::<ChildRef>::uninit(); STACK];
@@ -160,7 +165,7 @@ pub unsafe fn closest<const ROBUST: bool, L: Leaves>(
     );
     let mut top = 0usize;
     let mut far = _mm256_set1_ps(*t_max);
-    let mut current: ChildRef = 0;
+    let mut current = start;
     let mut hit = false;
     loop {
         if !is_leaf(current) {
@@ -219,13 +224,14 @@ pub unsafe fn any<const ROBUST: bool, L: Leaves>(
     t_max: f32,
     leaves: &mut L,
     work: &mut Work,
+    start: ChildRef,
 ) -> bool {
     let l = lanes::<ROBUST>(ray);
     let mut refs = [MaybeUninit::<ChildRef>::uninit(); STACK];
     let refs = refs.as_mut_ptr().cast::<ChildRef>();
     let mut top = 0usize;
     let far = _mm256_set1_ps(t_max);
-    let mut current: ChildRef = 0;
+    let mut current = start;
     loop {
         if !is_leaf(current) {
             // SAFETY: as in `closest`.

@@ -61,6 +61,36 @@ pub trait Leaves {
     fn address(&self, first: u32) -> *const u8;
 }
 
+/// What a leaf test answers for a packet's rays at once (lanes of
+/// [`packet::LANES`]); implemented for triangle blocks.
+#[cfg(target_arch = "x86_64")]
+pub trait PacketLeaves {
+    /// For each ray (lane) in `mask`, the nearest hit among `count` items
+    /// from `first` no farther than its `t_max`, which shrinks to it; the
+    /// lanes hit. The implementation remembers what each lane hit.
+    ///
+    /// # Safety
+    /// Needs AVX2 (the caller's token).
+    unsafe fn nearest(
+        &mut self,
+        first: u32,
+        count: u32,
+        mask: u32,
+        t_max: &mut [f32; packet::LANES],
+    ) -> u32;
+    /// The rays in `mask` that hit anything within their `t_max`.
+    ///
+    /// # Safety
+    /// As [`PacketLeaves::nearest`].
+    unsafe fn any(
+        &mut self,
+        first: u32,
+        count: u32,
+        mask: u32,
+        t_max: &[f32; packet::LANES],
+    ) -> u32;
+}
+
 /// A ray prepared for the slab tests.
 #[derive(Clone, Copy, Debug)]
 pub struct BoxRay {
@@ -114,7 +144,7 @@ impl BoxRay {
 
     /// Octant index of the child orders: bit set for a positive direction.
     #[inline(always)]
-    fn octant(&self) -> u32 {
+    pub(super) fn octant(&self) -> u32 {
         !self.negative & 7
     }
 
@@ -146,9 +176,11 @@ pub enum BoxTest {
     Fast,
 }
 
-/// The closest hit: shrinks `t_max` to its distance; true if anything was
-/// hit. `cpu` picks the AVX2 kernel.
+/// The closest hit below `start` (the root, 0, or a child reference read
+/// from one of the tree's nodes): shrinks `t_max` to its distance; true if
+/// anything was hit. `cpu` picks the AVX2 kernel.
 #[inline(always)]
+#[allow(clippy::too_many_arguments)]
 pub fn closest<L: Leaves>(
     tree: &Tree,
     ray: &BoxRay,
@@ -157,6 +189,7 @@ pub fn closest<L: Leaves>(
     cpu: Option<Avx2>,
     test: BoxTest,
     work: &mut Work,
+    start: ChildRef,
 ) -> bool {
     if tree.is_empty() {
         return false;
@@ -166,18 +199,20 @@ pub fn closest<L: Leaves>(
         // SAFETY: the token proves the CPU has the kernels' features.
         return unsafe {
             if test == BoxTest::Fast && ray.fast_test_fits() {
-                avx2::closest::<false, L>(cpu, tree, ray, t_max, leaves, work)
+                avx2::closest::<false, L>(cpu, tree, ray, t_max, leaves, work, start)
             } else {
-                avx2::closest::<true, L>(cpu, tree, ray, t_max, leaves, work)
+                avx2::closest::<true, L>(cpu, tree, ray, t_max, leaves, work, start)
             }
         };
     }
     let _ = (cpu, test);
-    scalar::closest(tree, ray, t_max, leaves, work)
+    scalar::closest(tree, ray, t_max, leaves, work, start)
 }
 
-/// Whether anything lies within `t_max`.
+/// Whether anything below `start` (as in [`closest`]) lies within
+/// `t_max`.
 #[inline(always)]
+#[allow(clippy::too_many_arguments)]
 pub fn any<L: Leaves>(
     tree: &Tree,
     ray: &BoxRay,
@@ -186,6 +221,7 @@ pub fn any<L: Leaves>(
     cpu: Option<Avx2>,
     test: BoxTest,
     work: &mut Work,
+    start: ChildRef,
 ) -> bool {
     if tree.is_empty() {
         return false;
@@ -195,20 +231,23 @@ pub fn any<L: Leaves>(
         // SAFETY: the token proves the CPU has the kernels' features.
         return unsafe {
             if test == BoxTest::Fast && ray.fast_test_fits() {
-                avx2::any::<false, L>(cpu, tree, ray, t_max, leaves, work)
+                avx2::any::<false, L>(cpu, tree, ray, t_max, leaves, work, start)
             } else {
-                avx2::any::<true, L>(cpu, tree, ray, t_max, leaves, work)
+                avx2::any::<true, L>(cpu, tree, ray, t_max, leaves, work, start)
             }
         };
     }
     let _ = (cpu, test);
-    scalar::any(tree, ray, t_max, leaves, work)
+    scalar::any(tree, ray, t_max, leaves, work, start)
 }
 
 mod scalar;
 
 #[cfg(target_arch = "x86_64")]
 mod avx2;
+
+#[cfg(target_arch = "x86_64")]
+pub mod packet;
 
 #[cfg(test)]
 mod tests {

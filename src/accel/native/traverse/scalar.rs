@@ -106,10 +106,11 @@ pub fn closest<L: Leaves>(
     t_max: &mut f32,
     leaves: &mut L,
     work: &mut Work,
+    start: ChildRef,
 ) -> bool {
     let octant = ray.octant();
     let mut stack = Stack::new((0, 0.0));
-    let mut current: ChildRef = 0;
+    let mut current = start;
     let mut hit = false;
     loop {
         if !is_leaf(current) {
@@ -148,9 +149,10 @@ pub fn any<L: Leaves>(
     t_max: f32,
     leaves: &mut L,
     work: &mut Work,
+    start: ChildRef,
 ) -> bool {
     let mut stack = Stack::new(0);
-    let mut current: ChildRef = 0;
+    let mut current = start;
     loop {
         if !is_leaf(current) {
             let node = &tree.nodes()[current as usize];

@@ -1,0 +1,156 @@
+//! The batch queries (native packets, Embree's `rtcIntersect8/16` and
+//! `rtcOccluded8/16` through the C driver) answer as the same backend's
+//! single-ray queries, ray for ray, on every kind of ray the renderer and
+//! the report send: native bit for bit; Embree, whose packet kernels are
+//! other code than its single-ray ones, with the same primitive and `t`
+//! within 1e-5 relative (as `embree_backend.rs` checks its batch calls).
+
+use hybrid::accel::{Accel, BackendConfig, TraceCounters};
+use hybrid::geom::{Hit, Ray};
+use hybrid::parity::rays::{
+    bounce_rays, camera_rays, incoherent_rays, occlusion_rays, shadow_rays,
+};
+use hybrid::scene::Scene;
+
+use crate::common::scene_or_skip;
+
+/// Ray sets of every kind, with a few odd ones mixed in: untraceable rays
+/// (NaN, zero direction, empty interval) and a group that is not a whole
+/// packet.
+fn ray_sets(scene: &Scene, reference: &impl Accel) -> Vec<(&'static str, Vec<Ray>)> {
+    let n = 4_003;
+    let mut odd = camera_rays(scene, 61, 9);
+    odd[3].dir = glam::Vec3::ZERO;
+    odd[10].origin.x = f32::NAN;
+    odd[17].t_max = -1.0;
+    vec![
+        ("camera", camera_rays(scene, n, 1)),
+        ("incoherent", incoherent_rays(scene, n, 2)),
+        ("bounce", bounce_rays(scene, reference, n, 3)),
+        ("light", shadow_rays(scene, reference, n, 4)),
+        ("occlusion", occlusion_rays(scene, n, 5)),
+        ("odd", odd),
+    ]
+}
+
+fn same_hit(a: &Option<Hit>, b: &Option<Hit>, exact: bool) -> bool {
+    match (a, b) {
+        (None, None) => true,
+        (Some(a), Some(b)) if exact => {
+            a.t.to_bits() == b.t.to_bits()
+                && a.prim == b.prim
+                && a.u.to_bits() == b.u.to_bits()
+                && a.v.to_bits() == b.v.to_bits()
+        }
+        (Some(a), Some(b)) => a.prim == b.prim && (a.t - b.t).abs() <= 1e-5 * a.t,
+        _ => false,
+    }
+}
+
+/// Every ray's batch answers against its single-ray answers: closest hit
+/// and occlusion; also checks the batch counts every ray.
+fn check(scene_name: &str, config: BackendConfig, scene: &Scene) {
+    let reference = BackendConfig::NATIVE.build(scene).expect("native builds");
+    let accel = match config.build(scene) {
+        Ok(a) => a,
+        Err(e) => panic!("{}: {e}", config.label()),
+    };
+    let exact = matches!(config, BackendConfig::Native(_));
+    for (kind, rays) in ray_sets(scene, &reference) {
+        assert!(!rays.is_empty(), "{scene_name} {kind}: no rays");
+        let mut counters = TraceCounters::default();
+        let single: Vec<Option<Hit>> = rays
+            .iter()
+            .map(|r| accel.closest_hit(r, &mut counters))
+            .collect();
+        let blocked: Vec<bool> = rays
+            .iter()
+            .map(|r| accel.occluded(r, &mut counters))
+            .collect();
+        let mut batch_counters = TraceCounters::default();
+        let mut hits = vec![None; rays.len()];
+        accel.closest_hits(&rays, &mut hits, &mut batch_counters);
+        // Camera rays go as packets (one interval test per node for eight
+        // rays): the node tests counted fall well below single rays'.
+        if config == BackendConfig::NATIVE && kind == "camera" && simd() {
+            let mut single_counters = TraceCounters::default();
+            for r in &rays {
+                accel.closest_hit(r, &mut single_counters);
+            }
+            let mut packet_counters = TraceCounters::default();
+            accel.closest_hits(&rays, &mut hits, &mut packet_counters);
+            assert!(
+                packet_counters.box_tests * 4 < single_counters.box_tests * 3,
+                "{scene_name}: camera rays not traced as packets ({} box tests against {} alone)",
+                packet_counters.box_tests,
+                single_counters.box_tests
+            );
+        }
+        let mut occluded = vec![false; rays.len()];
+        accel.occluded_all(&rays, &mut occluded, &mut batch_counters);
+        assert_eq!(
+            batch_counters.rays,
+            2 * rays.len() as u64,
+            "{kind}: rays counted"
+        );
+        let differ: Vec<usize> = (0..rays.len())
+            .filter(|&i| !same_hit(&single[i], &hits[i], exact))
+            .collect();
+        assert!(
+            differ.is_empty(),
+            "{scene_name} {kind} {}: {} of {} closest hits differ, first ray {:?}: single {:?}, batch {:?}",
+            config.label(),
+            differ.len(),
+            rays.len(),
+            rays[differ[0]],
+            single[differ[0]],
+            hits[differ[0]]
+        );
+        let blocked_differ = (0..rays.len())
+            .filter(|&i| blocked[i] != occluded[i])
+            .count();
+        assert_eq!(
+            blocked_differ,
+            0,
+            "{scene_name} {kind} {}: occlusion differs on {blocked_differ} of {} rays",
+            config.label(),
+            rays.len()
+        );
+        // The sets must exercise both answers.
+        assert!(
+            hits.iter().any(|h| h.is_some()),
+            "{scene_name} {kind}: nothing hit"
+        );
+    }
+}
+
+/// Whether this CPU runs the native packet kernels.
+fn simd() -> bool {
+    #[cfg(target_arch = "x86_64")]
+    {
+        is_x86_feature_detected!("avx2") && is_x86_feature_detected!("fma")
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        false
+    }
+}
+
+#[test]
+fn batch_queries_answer_as_single_rays_on_every_backend() {
+    for rel in [
+        "sky/CBbunny.dae",
+        "sky/CBspheres.dae",
+        "meshedit/maxplanck.dae",
+    ] {
+        let scene = scene_or_skip!(rel);
+        for config in [
+            BackendConfig::NATIVE,
+            BackendConfig::NATIVE_WATERTIGHT,
+            BackendConfig::EMBREE,
+            BackendConfig::EMBREE4,
+        ] {
+            check(rel, config, &scene);
+        }
+    }
+}
