@@ -120,6 +120,7 @@ impl RenderArgs {
             sample_range: self.sample_range_checked(samples)?,
             lens: self.lens_checked()?,
             course_camera: self.course_camera()?,
+            packets: !self.no_packets,
         })
     }
 

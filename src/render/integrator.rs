@@ -35,7 +35,7 @@ use crate::geom::ray::SpawnPoint;
 use crate::geom::sampling::{
     uniform_hemisphere, uniform_sphere, Frame, Rng, UNIFORM_HEMISPHERE_PDF,
 };
-use crate::geom::{gamma, Ray};
+use crate::geom::{gamma, Hit, Ray};
 use crate::scene::{Light, Material, Scene};
 
 /// How direct lighting is estimated at a diffuse or glossy vertex.
@@ -199,10 +199,28 @@ impl<'a, A: Accel> Integrator<'a, A> {
         }
     }
 
+    /// The backend the integrator traces with.
+    pub fn accel(&self) -> &'a A {
+        self.accel
+    }
+
     /// Radiance (or normal colour) along a camera ray.
     pub fn radiance(&self, ray: &Ray, rng: &mut Rng, counters: &mut TraceCounters) -> Vec3 {
+        let first = self.accel.closest_hit(ray, counters);
+        self.radiance_from(ray, first, rng, counters)
+    }
+
+    /// [`Self::radiance`] of a camera ray whose closest hit `first` was
+    /// traced already (in a packet with its neighbours').
+    pub fn radiance_from(
+        &self,
+        ray: &Ray,
+        first: Option<Hit>,
+        rng: &mut Rng,
+        counters: &mut TraceCounters,
+    ) -> Vec3 {
         match self.shading {
-            Shading::Normals => match self.accel.closest_hit(ray, counters) {
+            Shading::Normals => match first {
                 Some(hit) => {
                     // Shown facing the camera, as the shading sees it.
                     let sp = self.scene.surface_point(ray, &hit);
@@ -215,7 +233,7 @@ impl<'a, A: Accel> Integrator<'a, A> {
                 }
                 None => Vec3::ZERO,
             },
-            Shading::Path(settings) => self.path(ray, &settings, rng, counters),
+            Shading::Path(settings) => self.path(ray, first, &settings, rng, counters),
         }
     }
 
@@ -298,6 +316,7 @@ impl<'a, A: Accel> Integrator<'a, A> {
     fn path(
         &self,
         camera_ray: &Ray,
+        first: Option<Hit>,
         s: &PathSettings,
         rng: &mut Rng,
         counters: &mut TraceCounters,
@@ -314,7 +333,12 @@ impl<'a, A: Accel> Integrator<'a, A> {
         };
         let mut depth = 0u32;
         loop {
-            let Some(hit) = self.accel.closest_hit(&ray, counters) else {
+            let hit = if depth == 0 {
+                first
+            } else {
+                self.accel.closest_hit(&ray, counters)
+            };
+            let Some(hit) = hit else {
                 if s.counts(depth) && !(depth == 0 && s.background == Background::Black) {
                     total += beta * self.escaped(s, &prev, ray.dir);
                 }

@@ -29,6 +29,7 @@ use self::film::Origin;
 use self::integrator::{Integrator, Shading};
 use crate::accel::{Accel, TraceCounters};
 use crate::geom::sampling::{luminance, pixel_position, Rng};
+use crate::geom::Ray;
 use crate::scene::Scene;
 
 /// Adaptive sampling (`-a BATCH TOL`).
@@ -69,6 +70,10 @@ pub struct RenderSettings {
     pub lens: Option<ThinLens>,
     /// A camera file's camera (`-c`), instead of `camera`'s placement.
     pub course_camera: Option<CourseCamera>,
+    /// Trace each row's camera rays of a sample together, through the
+    /// backend's batch query (packets), instead of one at a time. The
+    /// image is the same either way.
+    pub packets: bool,
 }
 
 impl RenderSettings {
@@ -104,6 +109,7 @@ impl Default for RenderSettings {
             sample_range: None,
             lens: None,
             course_camera: None,
+            packets: true,
         }
     }
 }
@@ -211,16 +217,28 @@ fn render_rows<A: Accel>(
         .map(|(row_index, ((row, counts), sums))| {
             let y = cell.y + row_index as u32;
             let mut counters = TraceCounters::default();
-            for (i, x) in (cell.x..cell.x + cell.width).enumerate() {
-                let (sum, n) = pixel(&integrator, &camera, settings, x, y, &mut counters);
+            let columns = cell.x..cell.x + cell.width;
+            if settings.packets {
+                let pixels =
+                    row_in_packets(&integrator, &camera, settings, columns, y, &mut counters);
+                for (i, (sum, n)) in pixels.into_iter().enumerate() {
+                    sums[i] = sum;
+                    counts[i] = n;
+                }
+            } else {
+                for (i, x) in columns.enumerate() {
+                    let (sum, n) = pixel(&integrator, &camera, settings, x, y, &mut counters);
+                    sums[i] = sum;
+                    counts[i] = n;
+                }
+            }
+            for ((value, sum), &n) in row.iter_mut().zip(sums.iter()).zip(counts.iter()) {
                 // The one division both a single render and a merge do.
-                row[i] = if n == 0 {
+                *value = if n == 0 {
                     Vec3::ZERO
                 } else {
-                    (sum / f64::from(n)).as_vec3()
+                    (*sum / f64::from(n)).as_vec3()
                 };
-                sums[i] = sum;
-                counts[i] = n;
             }
             progress.row_done(counts.iter().map(|&n| u64::from(n)).sum());
             counters
@@ -234,6 +252,102 @@ fn render_rows<A: Accel>(
         counters: totals,
         seconds: start.elapsed().as_secs_f64(),
     }
+}
+
+/// The camera ray of sample `i` of pixel `(x, y)`, and the sample's random
+/// stream after it (the lens sample comes first from the stream, and only
+/// with a lens: pinhole images keep their random numbers).
+fn camera_sample(camera: &Camera, settings: &RenderSettings, x: u32, y: u32, i: u32) -> (Ray, Rng) {
+    let mut rng = Rng::for_sample(settings.seed, x, y, i);
+    // One sample at the pixel centre when there is one sample; positions
+    // spread evenly over the pixel otherwise.
+    let (dx, dy) = if settings.samples.max(1) == 1 {
+        (0.5, 0.5)
+    } else {
+        pixel_position(settings.seed, x, y, i)
+    };
+    let ray = if camera.has_lens() {
+        let lens = rng.next_2d();
+        camera.ray_through_lens(x as f32 + dx, y as f32 + dy, lens)
+    } else {
+        camera.ray(x as f32 + dx, y as f32 + dy)
+    };
+    (ray, rng)
+}
+
+/// Whether a pixel's adaptive sampling may stop after `n` samples of
+/// luminance sum `s1` and square sum `s2`.
+fn converged(a: &Adaptive, n: u32, s1: f64, s2: f64) -> bool {
+    if n < 2 {
+        return false;
+    }
+    let nf = f64::from(n);
+    let mean = s1 / nf;
+    let variance = ((s2 - s1 * s1 / nf) / (nf - 1.0)).max(0.0);
+    let interval = 1.96 * variance.sqrt() / nf.sqrt();
+    interval <= a.tolerance as f64 * mean
+}
+
+/// [`pixel`] for every pixel of row `y` in `columns` at once: each sample
+/// index's camera rays of the row's unfinished pixels go to the backend's
+/// batch query together (packets of neighbouring rays), and each path
+/// goes on from its ray's hit. Every pixel takes the same samples, in the
+/// same order, from the same random streams as [`pixel`], so the sums are
+/// the same bits.
+fn row_in_packets<A: Accel>(
+    integrator: &Integrator<A>,
+    camera: &Camera,
+    settings: &RenderSettings,
+    columns: std::ops::Range<u32>,
+    y: u32,
+    counters: &mut TraceCounters,
+) -> Vec<(DVec3, u32)> {
+    let cap = settings.samples.max(1);
+    let (first, last) = settings.sample_range.unwrap_or((0, cap));
+    let batch = settings.adaptive.map_or(cap, |a| a.batch.max(1));
+    let width = columns.len();
+    let mut sums = vec![(DVec3::ZERO, 0u32); width];
+    let mut luminance_sums = vec![(0.0f64, 0.0f64); width];
+    let mut active: Vec<usize> = (0..width).collect();
+    let (mut rays, mut streams) = (Vec::with_capacity(width), Vec::with_capacity(width));
+    let mut hits = vec![None; width];
+    let mut done = first;
+    while done < last && !active.is_empty() {
+        let end = done.saturating_add(batch).min(last);
+        for i in done..end {
+            rays.clear();
+            streams.clear();
+            for &p in &active {
+                let (ray, rng) = camera_sample(camera, settings, columns.start + p as u32, y, i);
+                rays.push(ray);
+                streams.push(rng);
+            }
+            let n = rays.len();
+            integrator
+                .accel()
+                .closest_hits(&rays, &mut hits[..n], counters);
+            for (k, &p) in active.iter().enumerate() {
+                let value = integrator.radiance_from(&rays[k], hits[k], &mut streams[k], counters);
+                sums[p].0 += value.as_dvec3();
+                let l = luminance(value) as f64;
+                luminance_sums[p].0 += l;
+                luminance_sums[p].1 += l * l;
+            }
+        }
+        done = end;
+        for &p in &active {
+            sums[p].1 = done - first;
+        }
+        if let Some(a) = settings.adaptive {
+            if done < last {
+                active.retain(|&p| {
+                    let (s1, s2) = luminance_sums[p];
+                    !converged(&a, done - first, s1, s2)
+                });
+            }
+        }
+    }
+    sums
 }
 
 /// Sum of the samples of pixel `(x, y)` (all of them, or the settings'
@@ -255,22 +369,7 @@ fn pixel<A: Accel>(
     while done < last {
         let end = done.saturating_add(batch).min(last);
         for i in done..end {
-            let mut rng = Rng::for_sample(settings.seed, x, y, i);
-            // One sample at the pixel centre when there is one sample;
-            // positions spread evenly over the pixel otherwise.
-            let (dx, dy) = if cap == 1 {
-                (0.5, 0.5)
-            } else {
-                pixel_position(settings.seed, x, y, i)
-            };
-            // The lens sample comes first from the sample's stream, and
-            // only with a lens: pinhole images keep their random numbers.
-            let ray = if camera.has_lens() {
-                let lens = rng.next_2d();
-                camera.ray_through_lens(x as f32 + dx, y as f32 + dy, lens)
-            } else {
-                camera.ray(x as f32 + dx, y as f32 + dy)
-            };
+            let (ray, mut rng) = camera_sample(camera, settings, x, y, i);
             let value = integrator.radiance(&ray, &mut rng, counters);
             sum += value.as_dvec3();
             let l = luminance(value) as f64;
@@ -280,14 +379,8 @@ fn pixel<A: Accel>(
         done = end;
         let n = done - first;
         if let Some(a) = settings.adaptive {
-            if n >= 2 && done < last {
-                let nf = n as f64;
-                let mean = s1 / nf;
-                let variance = ((s2 - s1 * s1 / nf) / (nf - 1.0)).max(0.0);
-                let interval = 1.96 * variance.sqrt() / nf.sqrt();
-                if interval <= a.tolerance as f64 * mean {
-                    break;
-                }
+            if done < last && converged(&a, n, s1, s2) {
+                break;
             }
         }
     }

@@ -10,6 +10,9 @@ use hybrid::geom::{Hit, Ray};
 use hybrid::parity::rays::{
     bounce_rays, camera_rays, incoherent_rays, occlusion_rays, shadow_rays,
 };
+use hybrid::render::camera::ThinLens;
+use hybrid::render::integrator::{PathSettings, Shading};
+use hybrid::render::{render, Adaptive, RenderSettings, Silent};
 use hybrid::scene::Scene;
 
 use crate::common::scene_or_skip;
@@ -152,5 +155,101 @@ fn batch_queries_answer_as_single_rays_on_every_backend() {
         ] {
             check(rel, config, &scene);
         }
+    }
+}
+
+/// Renders `scene` through `accel` with camera rays in packets or alone.
+fn frame(
+    scene: &Scene,
+    accel: &impl Accel,
+    settings: &RenderSettings,
+    packets: bool,
+    threads: usize,
+) -> (Vec<glam::DVec3>, Vec<u32>, u64) {
+    let settings = RenderSettings {
+        packets,
+        threads,
+        ..settings.clone()
+    };
+    let out = render(scene, accel, &settings, &Silent);
+    (out.film.sums, out.film.samples, out.counters.rays)
+}
+
+/// The renderer's packets change nothing: native gives the same bits with
+/// and without them (path tracing, normals, adaptive sampling, a lens, any
+/// thread count) and traces as many rays; Embree, whose packet kernels
+/// may round `t` differently in the last bits, the same image within a
+/// hair.
+#[test]
+fn packets_leave_the_image_unchanged() {
+    let scene = crate::common::default_scene();
+    let path = Shading::Path(PathSettings {
+        light_samples: 1,
+        max_bounces: 3,
+        ..PathSettings::default()
+    });
+    let base = RenderSettings {
+        width: 61,
+        height: 37,
+        samples: 4,
+        seed: 7,
+        shading: path,
+        ..RenderSettings::default()
+    };
+    let variants = [
+        base.clone(),
+        RenderSettings {
+            shading: Shading::Normals,
+            ..base.clone()
+        },
+        RenderSettings {
+            samples: 32,
+            adaptive: Some(Adaptive {
+                batch: 4,
+                tolerance: 0.2,
+            }),
+            ..base.clone()
+        },
+        RenderSettings {
+            lens: Some(ThinLens {
+                radius: 0.05,
+                focal_distance: 3.0,
+            }),
+            ..base.clone()
+        },
+    ];
+    let native = BackendConfig::NATIVE.build(&scene).expect("native builds");
+    for (v, settings) in variants.iter().enumerate() {
+        let alone = frame(&scene, &native, settings, false, 1);
+        for threads in [1, 3] {
+            let packets = frame(&scene, &native, settings, true, threads);
+            assert!(
+                alone.0 == packets.0,
+                "variant {v}, {threads} threads: sums differ"
+            );
+            assert_eq!(alone.1, packets.1, "variant {v}: samples per pixel differ");
+            assert_eq!(alone.2, packets.2, "variant {v}: rays traced differ");
+        }
+    }
+    // Adaptive sampling did stop some pixels early, so the check above
+    // covered pixels leaving the packets.
+    let adaptive = frame(&scene, &native, &variants[2], true, 1);
+    assert!(adaptive.1.iter().any(|&n| n < 32) && adaptive.1.iter().any(|&n| n == 32));
+    for config in [BackendConfig::EMBREE, BackendConfig::EMBREE4] {
+        let embree = config.build(&scene).expect("embree builds");
+        let alone = frame(&scene, &embree, &base, false, 1);
+        let packets = frame(&scene, &embree, &base, true, 2);
+        assert_eq!(alone.2, packets.2, "{}: rays traced differ", config.label());
+        let (mut diff, mut total) = (0.0, 0.0);
+        for (a, b) in alone.0.iter().zip(&packets.0) {
+            diff += (*a - *b).abs().element_sum();
+            total += a.element_sum();
+        }
+        assert!(
+            diff <= 1e-4 * total,
+            "{}: packets moved the image by {}",
+            config.label(),
+            diff / total
+        );
     }
 }
