@@ -124,6 +124,7 @@ pub fn run(options: &ReportOptions, log: &mut dyn FnMut(&str)) -> Result<(), Str
 
     let headline = headline::table(&per_scene);
     let (scenes_md, scenes_json) = scenes::section(&per_scene);
+    let (packets_md, packets_json) = scenes::packets_section(&per_scene);
     let brute_table = brute::table(&brute_rows);
     let mut md = format!(
         "# hybrid: native BVH against Embree\n\nMeasured on {} ({} cores; ISA {}), {}, hybrid {}, {}, on {}. Settings: {} run, {} rays per ray kind, medians of {} warmed-up repeats ({} per frame; range in parentheses: min–max), all-threads figures on {threads} threads.\n\n",
@@ -143,6 +144,7 @@ pub fn run(options: &ReportOptions, log: &mut dyn FnMut(&str)) -> Result<(), Str
     md += &verdict;
     md += &headline::markdown(&headline, &per_scene);
     md += &error::headline(&error_study);
+    md += &packets_md;
     md += &scenes_md;
     md += &format!(
         "## With and without acceleration (camera rays, 1 thread)\n\n{}\n",
@@ -163,6 +165,7 @@ pub fn run(options: &ReportOptions, log: &mut dyn FnMut(&str)) -> Result<(), Str
         "verdict": verdict.trim(),
         "headline": headline.json(),
         "scenes": scenes_json,
+        "packets": packets_json,
         "brute_force": brute_table.json(),
         "speed_vs_error": {
             "scene": error_study.scene,

@@ -11,12 +11,12 @@ use super::budget::Budget;
 use super::budget::ALL_BUILDS_UP_TO;
 use super::measure::{
     mrays_interleaved, on_threads, process_cpu_seconds, ray_sets, time_interleaved, time_repeats,
-    time_repeats_by, Measured,
+    time_repeats_by, trace_all, trace_all_batched, Measured,
 };
-use super::paired::compare;
+use super::paired::{batched_table, compare, compare_batched, PairedRow};
 use super::table::{Cell, Flag, Table};
 use crate::accel::config::{build_variants, compared};
-use crate::accel::{Accel, AccelStats, Backend, BackendConfig, TraceCounters, TreeFacts};
+use crate::accel::{Accel, AccelStats, Backend, BackendConfig, TreeFacts};
 use crate::geom::ray::FlatRay;
 use crate::geom::Ray;
 use crate::render::integrator::{PathSettings, Shading};
@@ -141,13 +141,21 @@ pub struct SceneResult {
     pub compared: Vec<BackendConfig>,
     pub builds: Vec<BuildRow>,
     pub traces: Vec<TraceRow>,
-    /// Per compared backend: its coherent batch call
-    /// ([`Accel::closest_hits`]) on the camera rays, one thread: how the
-    /// backend calls it, and the figure.
-    pub batch: Vec<(&'static str, Measured)>,
-    /// Frame: width, height, spp; seconds per compared backend.
+    /// Camera and light rays in every mode each backend has (native
+    /// single and packets; each Embree as a plain C caller, single and
+    /// batched), one thread ([`compare_batched`]).
+    pub batched: Vec<PairedRow>,
+    /// The same kinds on all threads: per compared backend, single rays
+    /// and its batch query ([`Accel::closest_hits`] /
+    /// [`Accel::occluded_all`]), Mrays/s by wall clock.
+    pub batched_all: Vec<(&'static str, Vec<[Measured; 2]>)>,
+    /// Per compared backend, how its batch query traces.
+    pub batch_calls: Vec<&'static str>,
+    /// Frame: width, height, spp; seconds per compared backend, camera
+    /// rays in packets (the renderer's default) and alone.
     pub frame: (u32, u32, u32),
     pub frame_seconds: Vec<Measured>,
+    pub frame_seconds_alone: Vec<Measured>,
 }
 
 impl SceneResult {
@@ -170,6 +178,12 @@ impl SceneResult {
     /// The two frame times `frame_ratio(j)` rests on.
     pub fn frame_pair(&self, j: usize) -> [Measured; 2] {
         [0, j].map(|i| self.frame_seconds[i])
+    }
+
+    /// Backend `i`'s frame time with packets over without (below 1:
+    /// packets are faster).
+    pub fn packet_frame_ratio(&self, i: usize) -> f64 {
+        self.frame_seconds[i].median / self.frame_seconds_alone[i].median
     }
 }
 
@@ -263,22 +277,42 @@ pub fn measure(
             }
         })
         .collect::<Vec<_>>();
-    // Each backend's batch call on the same camera rays, one thread.
-    let camera = &sets[0].rays;
-    let mut answers = vec![None; camera.len()];
-    let batch = backends
+    // Camera and light rays in every batched mode, one thread and all.
+    let batched_sets: Vec<_> = sets
         .iter()
-        .map(|b| {
-            let mut counters = TraceCounters::default();
-            let t = time_repeats(budget.repeats, || {
-                b.closest_hits(camera, &mut answers, &mut counters)
-            });
-            (
-                b.stats().batch_call,
-                Measured::per_second_millions(camera.len(), &t),
-            )
+        .filter(|s| s.kind == "camera" || s.kind == "light")
+        .collect();
+    let batched = batched_sets
+        .iter()
+        .map(|set| {
+            let flat: Vec<FlatRay> = set.rays.iter().map(Ray::flat).collect();
+            on_threads(1, || {
+                compare_batched(set.kind, set.query, &flat, &labelled, budget.settle)
+            })
         })
         .collect();
+    let batched_all = batched_sets
+        .iter()
+        .map(|set| {
+            let figures = on_threads(threads, || {
+                time_interleaved(2 * backends.len(), budget.repeats, |i| {
+                    let b = &backends[i / 2];
+                    if i % 2 == 0 {
+                        trace_all(b, &set.rays, set.query, threads)
+                    } else {
+                        trace_all_batched(b, &set.rays, set.query, threads)
+                    }
+                })
+            });
+            let rate = |m: &Measured| Measured::per_second_millions(set.rays.len(), m);
+            let pairs = figures
+                .chunks(2)
+                .map(|p| [rate(&p[0]), rate(&p[1])])
+                .collect();
+            (set.kind, pairs)
+        })
+        .collect();
+    let batch_calls = backends.iter().map(|b| b.stats().batch_call).collect();
     let (w, h, spp) = budget.frame;
     let settings = RenderSettings {
         width: w,
@@ -294,10 +328,18 @@ pub fn measure(
         ..RenderSettings::default()
     };
     // Interleaved as the rays are: a frame takes a tenth of a second, so
-    // back-to-back repeats of one backend caught the machine's drift.
-    let frame_seconds = time_interleaved(backends.len(), budget.frame_repeats, |i| {
-        render(scene, &backends[i], &settings, &Silent)
+    // back-to-back repeats of one backend caught the machine's drift. Each
+    // backend with camera rays in packets, then alone.
+    let alone = RenderSettings {
+        packets: false,
+        ..settings.clone()
+    };
+    let frames = time_interleaved(2 * backends.len(), budget.frame_repeats, |i| {
+        let settings = if i % 2 == 0 { &settings } else { &alone };
+        render(scene, &backends[i / 2], settings, &Silent)
     });
+    let frame_seconds = frames.iter().step_by(2).copied().collect();
+    let frame_seconds_alone = frames.iter().skip(1).step_by(2).copied().collect();
     Ok(SceneResult {
         size,
         scene: rel.to_string(),
@@ -307,10 +349,13 @@ pub fn measure(
         repeats: budget.repeats,
         compared,
         builds,
-        batch,
+        batched,
+        batched_all,
+        batch_calls,
         traces,
         frame: (w, h, spp),
         frame_seconds,
+        frame_seconds_alone,
     })
 }
 
@@ -422,27 +467,111 @@ fn traces_table(r: &SceneResult) -> Table {
     table
 }
 
-/// Each backend's batch call against its own single-ray calls, one thread.
-fn batch_table(r: &SceneResult) -> Table {
-    let mut table = Table::new([
-        ("backend", "backend".to_string()),
-        ("batch_call", "batch call".to_string()),
-        ("batch_mrays", "batch Mrays/s".to_string()),
-        ("single_mrays", "single-ray Mrays/s".to_string()),
-        ("batch_over_single", "batch / single".to_string()),
-    ]);
-    for (i, c) in r.compared.iter().enumerate() {
-        let single = r.traces[0].one_thread[i];
-        let (call, batch) = &r.batch[i];
-        table.row(vec![
-            Cell::Text(c.label()),
-            Cell::Text(call.to_string()),
-            Cell::Measured(*batch, 2),
-            Cell::Measured(single, 2),
-            Cell::ratio_of(batch.median / single.median, &[*batch, single]),
-        ]);
+/// Each backend's batch query against its own single rays, all threads.
+fn batched_all_table(r: &SceneResult) -> Table {
+    let t = r.threads;
+    let mut columns = vec![("kind", "rays".to_string())];
+    let labels: Vec<String> = r.compared.iter().map(|c| c.label()).collect();
+    let mut keys = Vec::new();
+    for l in &labels {
+        keys.push((format!("{l}_single"), format!("{l} single, {t} threads")));
+        keys.push((format!("{l}_batch"), format!("{l} batch, {t} threads")));
+    }
+    keys.push((
+        "native_batch_over_best".into(),
+        "native batch / best Embree".into(),
+    ));
+    let mut table = Table::new(
+        columns
+            .drain(..)
+            .map(|(k, v)| (k.to_string(), v))
+            .chain(keys),
+    );
+    for (kind, pairs) in &r.batched_all {
+        let mut cells = vec![Cell::Text(kind.to_string())];
+        for pair in pairs {
+            cells.push(Cell::Measured(pair[0], 2));
+            cells.push(Cell::Measured(pair[1], 2));
+        }
+        let native = pairs[0][1];
+        let best = pairs[1..]
+            .iter()
+            .flatten()
+            .max_by(|a, b| a.median.total_cmp(&b.median));
+        cells.push(match best {
+            Some(b) => Cell::ratio_of(native.median / b.median, &[native, *b]),
+            None => Cell::Empty,
+        });
+        table.row(cells);
     }
     table
+}
+
+/// The packets' figures against issue 28's targets, one line per scene
+/// and ray kind: native packets over Embree's best mode on one thread
+/// (plain C) and on all threads, and each backend's frame time with
+/// packets over without.
+pub fn packets_section(results: &[SceneResult]) -> (String, Value) {
+    let mut table = Table::new([
+        ("scene", "scene".to_string()),
+        ("kind", "rays".to_string()),
+        (
+            "packets_over_single",
+            "native packets / single, 1 thread".to_string(),
+        ),
+        (
+            "packets_over_best_1",
+            "native packets / best Embree, 1 thread".to_string(),
+        ),
+        ("best_embree_1", "best Embree, 1 thread".to_string()),
+        (
+            "packets_over_best_all",
+            "native packets / best Embree, all threads".to_string(),
+        ),
+        ("target", "target".to_string()),
+    ]);
+    let mut frames = Vec::new();
+    for r in results {
+        for (row, (_, pairs)) in r.batched.iter().zip(&r.batched_all) {
+            let (single, packets) = (row.runs[0].cpu.median, row.runs[1].cpu.median);
+            let best = row
+                .runs
+                .iter()
+                .filter(|run| run.plain_c)
+                .max_by(|a, b| a.cpu.median.total_cmp(&b.cpu.median));
+            let best_all = pairs[1..]
+                .iter()
+                .flatten()
+                .map(|m| m.median)
+                .fold(f64::NAN, f64::max);
+            let target = if row.kind == "camera" { 1.2 } else { 1.0 };
+            table.row(vec![
+                Cell::Text(r.scene.clone()),
+                Cell::Text(row.kind.clone()),
+                Cell::Ratio(packets / single),
+                best.map_or(Cell::Empty, |b| Cell::Ratio(packets / b.cpu.median)),
+                best.map_or(Cell::Empty, |b| Cell::Text(b.name.clone())),
+                Cell::Ratio(pairs[0][1].median / best_all),
+                Cell::Text(format!("≥ {target:.1}x")),
+            ]);
+        }
+        frames.push(format!(
+            "{}: {}",
+            r.scene,
+            r.compared
+                .iter()
+                .enumerate()
+                .map(|(i, c)| format!("{} {:.3}x", c.label(), r.packet_frame_ratio(i)))
+                .collect::<Vec<_>>()
+                .join(", ")
+        ));
+    }
+    let md = format!(
+        "## Packets\n\nCamera rays and the light rays of the camera's first hits, traced in batches: native in packets of eight rays of one octant (an interval test of each node's children against the packet, then the single-ray slab test lane by lane, leaves tested eight rays per triangle, a child entered by one ray handed to the single-ray kernel); Embree in each batched mode its version has, called from C (`rtcIntersect8`/`rtcIntersect16`, `rtcOccluded8`/`rtcOccluded16`, Embree 3's `rtcIntersect1M`/`rtcOccluded1M` stream), the coherent hint on these rays. One thread: Mrays/s by CPU time, interleaved rounds as the headline's; all threads: wall clock, each backend's batch query and single rays. Targets (issue 28): native packets at least 1.2x Embree's best mode on camera rays and 1.0x on light rays.\n\n{}\nFrame time with camera rays in packets over without (below 1: packets are faster; the per-scene sections' frame, same image either way): {}.\n\n",
+        table.markdown(),
+        frames.join("; ")
+    );
+    (md, json!({ "targets": table.json() }))
 }
 
 /// The per-scene section: Markdown and the JSON of every scene.
@@ -452,7 +581,14 @@ pub fn section(results: &[SceneResult]) -> (String, Value) {
     for r in results {
         let builds = builds_table(r);
         let traces = traces_table(r);
-        let batch = batch_table(r);
+        let batched = batched_table(&r.batched);
+        let batched_all = batched_all_table(r);
+        let calls: Vec<String> = r
+            .compared
+            .iter()
+            .zip(&r.batch_calls)
+            .map(|(c, call)| format!("{}: {call}", c.label()))
+            .collect();
         let (w, h, spp) = r.frame;
         let frames: Vec<String> = r
             .compared
@@ -464,17 +600,25 @@ pub fn section(results: &[SceneResult]) -> (String, Value) {
                 } else {
                     format!(" ({:.2}x)", r.frame_ratio(i))
                 };
-                format!("{} {:.3} s{ratio}", c.label(), r.frame_seconds[i].median)
+                format!(
+                    "{} {:.3} s{ratio}, {:.3} s without packets",
+                    c.label(),
+                    r.frame_seconds[i].median,
+                    r.frame_seconds_alone[i].median
+                )
             })
             .collect();
         md += &format!(
-            "### {} ({}: {} primitives)\n\n{}\n{}\nBatch calls on the same camera rays, 1 thread:\n\n{}\nTime per frame ({w}x{h}, {spp} spp, 3 bounces, light sampling, {} threads): {} (in parentheses each Embree's time / native's: greater than 1 means native is faster).\n\n",
+            "### {} ({}: {} primitives)\n\n{}\n{}\nCamera and light rays in every batched mode, 1 thread (Mrays/s by CPU time; each Embree called from C):\n\n{}\nThe same on {} threads, through each backend's batch query ({}):\n\n{}\nTime per frame ({w}x{h}, {spp} spp, 3 bounces, light sampling, {} threads; camera rays in packets unless said): {} (in parentheses each Embree's time / native's: greater than 1 means native is faster).\n\n",
             r.scene,
             r.size,
             r.primitives,
             builds.markdown(),
             traces.markdown(),
-            batch.markdown(),
+            batched.markdown(),
+            r.threads,
+            calls.join("; "),
+            batched_all.markdown(),
             r.threads,
             frames.join(", "),
         );
@@ -490,8 +634,15 @@ pub fn section(results: &[SceneResult]) -> (String, Value) {
             "primitives": r.primitives,
             "builds": builds.json(),
             "traces": traces.json(),
-            "camera_batch": batch.json(),
+            "batched": batched.json(),
+            "batched_all_threads": batched_all.json(),
             "frame_seconds": frame_json,
+            "frame_seconds_without_packets": r
+                .compared
+                .iter()
+                .zip(&r.frame_seconds_alone)
+                .map(|(c, t)| (c.label(), json!(t.median)))
+                .collect::<serde_json::Map<String, Value>>(),
         }));
     }
     (md, Value::Array(scenes))

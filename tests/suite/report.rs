@@ -24,6 +24,7 @@ fn quick_report_writes_every_section_and_the_headline_figures() {
     for section in [
         "## Build and trace, per scene",
         "## With and without acceleration",
+        "## Packets",
         "## Speed against error",
         "## How cost grows with scene size",
         "## Adaptive against uniform sampling at equal time",
@@ -55,6 +56,46 @@ fn quick_report_writes_every_section_and_the_headline_figures() {
     // Quick covers fewer scenes, with the full report's rays.
     assert_eq!(scenes.len(), hybrid::report::budget::QUICK_SCENES.len());
     assert_eq!(json["settings"]["rays"], 1_000_000);
+    // Packets: per scene, camera and light rays, with each ratio measured
+    // and Embree's best mode named; each scene's batched tables list native
+    // packets and Embree's packets of 8 beside their single rays.
+    let targets = json["packets"]["targets"]
+        .as_array()
+        .expect("packet targets");
+    assert_eq!(targets.len(), 2 * scenes.len());
+    for t in targets {
+        for key in [
+            "packets_over_single",
+            "packets_over_best_1",
+            "packets_over_best_all",
+        ] {
+            let x = t[key].as_f64().unwrap_or(f64::NAN);
+            assert!(x.is_finite() && x > 0.0, "packets {key} = {x}: {t}");
+        }
+        assert!(t["best_embree_1"]
+            .as_str()
+            .is_some_and(|b| b.starts_with("embree")));
+    }
+    for scene in scenes {
+        let rows = scene["batched"].as_array().expect("batched rows");
+        assert_eq!(rows.len(), 2, "camera and light");
+        for key in [
+            "native_mrays",
+            "native_packets_mrays",
+            "embree3_packet8_mrays",
+            "embree3_stream_mrays",
+            "embree4_packet8_mrays",
+        ] {
+            assert!(
+                rows[0][key].is_object() || rows[0][key].is_number(),
+                "batched lacks {key}: {}",
+                rows[0]
+            );
+        }
+        assert!(scene["frame_seconds_without_packets"]["native"]
+            .as_f64()
+            .is_some());
+    }
     let headline = json["headline"].as_array().expect("headline rows");
     let row = |measure: &str| {
         headline
