@@ -143,7 +143,7 @@ impl Leaves for SphereLeaves<'_> {
 #[cfg(target_arch = "x86_64")]
 pub(super) struct BlockPacket<'a> {
     pub(super) blocks: &'a [TriangleBlock4],
-    pub(super) rays: Rays8,
+    pub(super) rays: &'a Rays8,
     pub(super) best: [u32; LANES],
     pub(super) u: [f32; LANES],
     pub(super) v: [f32; LANES],
@@ -151,14 +151,10 @@ pub(super) struct BlockPacket<'a> {
 
 #[cfg(target_arch = "x86_64")]
 impl<'a> BlockPacket<'a> {
-    pub(super) fn new(blocks: &'a [TriangleBlock4], rays: &PacketRays) -> BlockPacket<'a> {
+    pub(super) fn new(blocks: &'a [TriangleBlock4], rays: &'a PacketRays) -> BlockPacket<'a> {
         BlockPacket {
             blocks,
-            rays: Rays8 {
-                origin: rays.origin,
-                dir: rays.dir,
-                t_min: rays.t_min,
-            },
+            rays: &rays.lanes,
             best: [u32::MAX; LANES],
             u: [0.0; LANES],
             v: [0.0; LANES],
@@ -207,7 +203,7 @@ impl PacketLeaves for BlockPacket<'_> {
                 if block.prim(i) == u32::MAX {
                     break;
                 }
-                let (hits, t, u, v) = eight::hit(block, i, &self.rays, t_lanes, live);
+                let (hits, t, u, v) = eight::hit(block, i, self.rays, t_lanes, live);
                 if hits == 0 {
                     continue;
                 }
@@ -242,7 +238,7 @@ impl PacketLeaves for BlockPacket<'_> {
                 if block.prim(i) == u32::MAX {
                     break;
                 }
-                let (hits, ..) = eight::hit(block, i, &self.rays, t_lanes, lane_mask(live));
+                let (hits, ..) = eight::hit(block, i, self.rays, t_lanes, lane_mask(live));
                 live &= !hits;
                 if live == 0 {
                     return mask;

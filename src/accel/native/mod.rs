@@ -520,7 +520,10 @@ impl NativeBvh {
                 // SAFETY: the token proves AVX2.
                 let prepared = unsafe { PacketRays::load(rays) };
                 let mut rest = prepared.traceable;
-                out.fill(None);
+                let lanes = (1u32 << out.len()) - 1;
+                for i in lanes_of(lanes & !rest) {
+                    out[i] = None;
+                }
                 while rest != 0 {
                     let group = prepared.same_octant(rest);
                     rest &= !group;
@@ -555,7 +558,10 @@ impl NativeBvh {
                 // SAFETY: the token proves AVX2.
                 let prepared = unsafe { PacketRays::load(rays) };
                 let mut rest = prepared.traceable;
-                out.fill(false);
+                let lanes = (1u32 << out.len()) - 1;
+                for i in lanes_of(lanes & !rest) {
+                    out[i] = false;
+                }
                 while rest != 0 {
                     let group = prepared.same_octant(rest);
                     rest &= !group;

@@ -35,6 +35,7 @@
 use std::arch::x86_64::*;
 
 use super::*;
+use crate::accel::native::triangle::eight::Rays8;
 use crate::geom::Ray;
 
 /// Rays in a packet.
@@ -45,12 +46,11 @@ pub const LANES: usize = 8;
 /// [`Ray::traceable_vectors`] use per ray (so each lane holds the bits the
 /// single-ray kernel computes). Lanes past the rays given repeat the last.
 pub struct PacketRays {
-    pub origin: [__m256; 3],
-    pub dir: [__m256; 3],
+    /// Origins, directions and `t_min`, as the leaf test takes them.
+    pub lanes: Rays8,
     inv: [__m256; 3],
     /// The fast test's constants per axis: near `c`, far `r`, far `c`.
     fast: [[__m256; 3]; 3],
-    pub t_min: __m256,
     t_max: __m256,
     /// Lanes whose ray is traceable.
     pub traceable: u32,
@@ -132,11 +132,9 @@ impl PacketRays {
         }
         let lanes = (1u32 << (last + 1)) - 1;
         PacketRays {
-            origin,
-            dir,
+            lanes: Rays8 { origin, dir, t_min },
             inv,
             fast,
-            t_min,
             t_max,
             traceable: traceable & lanes,
             fits: _mm256_movemask_ps(finite) as u32,
@@ -233,77 +231,72 @@ struct Interval {
     t_min: __m256,
 }
 
-/// The lane test's constants: one lane per ray.
-struct RayLanes {
-    near_r: [__m256; 3],
-    near_c: [__m256; 3],
-    far_r: [__m256; 3],
-    far_c: [__m256; 3],
-    t_min: __m256,
-}
-
-/// The smallest and the largest of the lanes in `on` (a vector mask).
+/// The smallest of the lanes in `on` (a vector mask), in every lane.
 #[target_feature(enable = "avx2,fma,popcnt,lzcnt,bmi1,bmi2")]
 #[inline]
-fn range(v: __m256, on: __m256) -> (f32, f32) {
-    let lo = _mm256_blendv_ps(_mm256_set1_ps(f32::INFINITY), v, on);
-    let hi = _mm256_blendv_ps(_mm256_set1_ps(f32::NEG_INFINITY), v, on);
-    let lo = _mm_min_ps(_mm256_castps256_ps128(lo), _mm256_extractf128_ps::<1>(lo));
-    let hi = _mm_max_ps(_mm256_castps256_ps128(hi), _mm256_extractf128_ps::<1>(hi));
-    let lo = _mm_min_ps(lo, _mm_movehl_ps(lo, lo));
-    let hi = _mm_max_ps(hi, _mm_movehl_ps(hi, hi));
-    let lo = _mm_min_ss(lo, _mm_shuffle_ps::<1>(lo, lo));
-    let hi = _mm_max_ss(hi, _mm_shuffle_ps::<1>(hi, hi));
-    (_mm_cvtss_f32(lo), _mm_cvtss_f32(hi))
+fn all_min(v: __m256, on: __m256) -> __m256 {
+    let m = _mm256_blendv_ps(_mm256_set1_ps(f32::INFINITY), v, on);
+    let m = _mm256_min_ps(m, _mm256_permute2f128_ps::<1>(m, m));
+    let m = _mm256_min_ps(m, _mm256_shuffle_ps::<0b0100_1110>(m, m));
+    _mm256_min_ps(m, _mm256_shuffle_ps::<0b1011_0001>(m, m))
 }
 
+/// The largest of the lanes in `on`, in every lane.
 #[target_feature(enable = "avx2,fma,popcnt,lzcnt,bmi1,bmi2")]
 #[inline]
-fn prepare<const ROBUST: bool>(p: &Packet) -> (Interval, RayLanes) {
-    let r = p.rays;
-    let (near_c, far_r, far_c) = if ROBUST {
-        (r.origin, r.inv, r.origin)
+fn all_max(v: __m256, on: __m256) -> __m256 {
+    let m = _mm256_blendv_ps(_mm256_set1_ps(f32::NEG_INFINITY), v, on);
+    let m = _mm256_max_ps(m, _mm256_permute2f128_ps::<1>(m, m));
+    let m = _mm256_max_ps(m, _mm256_shuffle_ps::<0b0100_1110>(m, m));
+    _mm256_max_ps(m, _mm256_shuffle_ps::<0b1011_0001>(m, m))
+}
+
+/// The lane test's constants of each axis: near `r`, near `c`, far `r`,
+/// far `c` (robust form: reciprocal and origin; fast form: the fused
+/// constants).
+#[inline(always)]
+fn constants<const ROBUST: bool>(r: &PacketRays) -> [&[__m256; 3]; 4] {
+    if ROBUST {
+        [&r.inv, &r.lanes.origin, &r.inv, &r.lanes.origin]
     } else {
-        (r.fast[0], r.fast[1], r.fast[2])
-    };
+        [&r.inv, &r.fast[0], &r.fast[1], &r.fast[2]]
+    }
+}
+
+/// The interval test's constants of packet `p`, written into `ia`.
+#[target_feature(enable = "avx2,fma,popcnt,lzcnt,bmi1,bmi2")]
+#[inline]
+fn interval<const ROBUST: bool>(p: &Packet, ia: &mut Interval) {
+    let r = p.rays;
+    let [_, near_c, _, far_c] = constants::<ROBUST>(r);
     let on = lane_mask(p.mask);
-    let splat = _mm256_set1_ps;
     let lead = p.mask.trailing_zeros();
-    let mut ia = Interval {
-        near_r: [(splat(0.0), splat(0.0)); 3],
-        near_c: [splat(0.0); 3],
-        far_r: [(splat(0.0), splat(0.0)); 3],
-        far_c: [splat(0.0); 3],
-        t_min: splat(range(r.t_min, on).0),
-    };
+    ia.t_min = all_min(r.lanes.t_min, on);
     for axis in 0..3 {
-        let (r_lo, r_hi) = range(r.inv[axis], on);
-        let (f_lo, f_hi) = range(far_r[axis], on);
-        let (nc_lo, nc_hi) = range(near_c[axis], on);
-        let (fc_lo, fc_hi) = range(far_c[axis], on);
-        ia.near_r[axis] = (splat(r_lo), splat(r_hi));
-        ia.far_r[axis] = (splat(f_lo), splat(f_hi));
+        let (r_lo, r_hi) = (all_min(r.inv[axis], on), all_max(r.inv[axis], on));
+        ia.near_r[axis] = (r_lo, r_hi);
+        // The fast form's far reciprocal is `r (1 + 2^-20)` lane by lane;
+        // multiplying by a positive constant keeps the order, so its range
+        // is the reciprocals' range times the same constant.
+        ia.far_r[axis] = if ROBUST {
+            (r_lo, r_hi)
+        } else {
+            let scale = _mm256_set1_ps(FAST_FAR_SCALE);
+            (_mm256_mul_ps(r_lo, scale), _mm256_mul_ps(r_hi, scale))
+        };
         // Fast form `plane * r - c`: the largest `c` lowers the near
         // distance, the smallest raises the far one. Robust form
         // `(plane - o) * r`: which end of `o` does depends on the sign of
         // `r`, the packet's octant.
         let negative_axis = r.negative[axis] >> lead & 1 != 0;
-        let (nc, fc) = if ROBUST && negative_axis {
-            (nc_lo, fc_hi)
+        if ROBUST && negative_axis {
+            ia.near_c[axis] = all_min(near_c[axis], on);
+            ia.far_c[axis] = all_max(far_c[axis], on);
         } else {
-            (nc_hi, fc_lo)
-        };
-        ia.near_c[axis] = splat(nc);
-        ia.far_c[axis] = splat(fc);
+            ia.near_c[axis] = all_max(near_c[axis], on);
+            ia.far_c[axis] = all_min(far_c[axis], on);
+        }
     }
-    let lanes = RayLanes {
-        near_r: r.inv,
-        near_c,
-        far_r,
-        far_c,
-        t_min: r.t_min,
-    };
-    (ia, lanes)
 }
 
 /// One plane's distance, robust `(plane - c) * r` or fast `plane * r - c`.
@@ -367,16 +360,17 @@ unsafe fn interval_slab<const ROBUST: bool>(
 fn lane_slab<const ROBUST: bool>(
     node: &Node8,
     c: usize,
-    l: &RayLanes,
+    r: &PacketRays,
     rows: &[(usize, usize); 3],
     t_max: __m256,
 ) -> u32 {
+    let [near_r, near_c, far_r, far_c] = constants::<ROBUST>(r);
     let plane = |row: usize| _mm256_set1_ps(node.planes[row][c]);
-    let near_t = |a: usize| distance::<ROBUST>(plane(rows[a].0), l.near_r[a], l.near_c[a]);
-    let far_t = |a: usize| distance::<ROBUST>(plane(rows[a].1), l.far_r[a], l.far_c[a]);
+    let near_t = |a: usize| distance::<ROBUST>(plane(rows[a].0), near_r[a], near_c[a]);
+    let far_t = |a: usize| distance::<ROBUST>(plane(rows[a].1), far_r[a], far_c[a]);
     let near = _mm256_max_ps(
         _mm256_max_ps(near_t(0), near_t(1)),
-        _mm256_max_ps(near_t(2), l.t_min),
+        _mm256_max_ps(near_t(2), r.lanes.t_min),
     );
     let far = _mm256_min_ps(_mm256_min_ps(far_t(0), far_t(1)), far_t(2));
     let far = if ROBUST {
@@ -449,7 +443,16 @@ pub unsafe fn closest<const ROBUST: bool, P: PacketLeaves>(
     work: &mut Work,
     single_below: u32,
 ) -> u32 {
-    let (ia, lanes) = prepare::<ROBUST>(packet);
+    let zero = _mm256_setzero_ps();
+    let mut ia = Interval {
+        near_r: [(zero, zero); 3],
+        near_c: [zero; 3],
+        far_r: [(zero, zero); 3],
+        far_c: [zero; 3],
+        t_min: zero,
+    };
+    interval::<ROBUST>(packet, &mut ia);
+    let lanes = packet.rays;
     let rows = packet.rows();
     let shift = _mm_cvtsi32_si128(3 * packet.octant() as i32);
     let mut refs = [MaybeUninit::<ChildRef>::uninit(); STACK];
@@ -493,7 +496,7 @@ pub unsafe fn closest<const ROBUST: bool, P: PacketLeaves>(
                 _mm256_storeu_ps(near_of.as_mut_ptr(), near);
                 for place in bits(sorted) {
                     let c = places[place] as usize;
-                    let entering = lane_slab::<ROBUST>(node, c, &lanes, &rows, t_lanes) & mask;
+                    let entering = lane_slab::<ROBUST>(node, c, lanes, &rows, t_lanes) & mask;
                     if entering == 0 {
                         continue;
                     }
@@ -556,7 +559,16 @@ pub unsafe fn any<const ROBUST: bool, P: PacketLeaves>(
     work: &mut Work,
     single_below: u32,
 ) -> u32 {
-    let (ia, lanes) = prepare::<ROBUST>(packet);
+    let zero = _mm256_setzero_ps();
+    let mut ia = Interval {
+        near_r: [(zero, zero); 3],
+        near_c: [zero; 3],
+        far_r: [(zero, zero); 3],
+        far_c: [zero; 3],
+        t_min: zero,
+    };
+    interval::<ROBUST>(packet, &mut ia);
+    let lanes = packet.rays;
     let rows = packet.rows();
     let mut refs = [MaybeUninit::<ChildRef>::uninit(); STACK];
     let mut masks = [MaybeUninit::<u32>::uninit(); STACK];
@@ -577,7 +589,7 @@ pub unsafe fn any<const ROBUST: bool, P: PacketLeaves>(
             work.nodes += 1;
             let (_, passed) = interval_slab::<ROBUST>(node, &ia, &rows, _mm256_set1_ps(far));
             for c in bits(passed) {
-                let entering = lane_slab::<ROBUST>(node, c, &lanes, &rows, t_lanes) & mask;
+                let entering = lane_slab::<ROBUST>(node, c, lanes, &rows, t_lanes) & mask;
                 if entering == 0 {
                     continue;
                 }
