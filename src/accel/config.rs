@@ -118,6 +118,12 @@ impl BackendConfig {
         triangle: TriangleMode::Watertight,
         ..NativeOptions::DEFAULT
     });
+    /// The native BVH with packets of eight rays (AVX2 lanes) even where
+    /// the CPU runs sixteen: the batch queries' narrower kernels.
+    pub const NATIVE_PACKETS8: BackendConfig = BackendConfig::Native(NativeOptions {
+        packet_lanes: 8,
+        ..NativeOptions::DEFAULT
+    });
     /// The native BVH built by median splits: the baseline the SAH is
     /// measured against.
     pub const NATIVE_MEDIAN: BackendConfig = BackendConfig::Native(NativeOptions {
@@ -189,6 +195,9 @@ impl BackendConfig {
                 }
                 if o.simd != d.simd {
                     label += " scalar";
+                }
+                if o.packet_lanes != d.packet_lanes {
+                    label += &format!(" packets of {}", o.packet_lanes);
                 }
             }
             BackendConfig::Embree(o) => {

@@ -259,6 +259,7 @@ impl RenderArgs {
                 method: self.build,
                 max_leaf: self.leaf,
                 simd: !self.scalar,
+                packet_lanes: 0,
             }),
             AccelArg::Embree | AccelArg::Embree3 | AccelArg::Embree4 => {
                 BackendConfig::Embree(EmbreeOptions {

@@ -149,6 +149,7 @@ fn batch_queries_answer_as_single_rays_on_every_backend() {
         let scene = scene_or_skip!(rel);
         for config in [
             BackendConfig::NATIVE,
+            BackendConfig::NATIVE_PACKETS8,
             BackendConfig::NATIVE_WATERTIGHT,
             BackendConfig::EMBREE,
             BackendConfig::EMBREE4,

@@ -35,3 +35,23 @@ impl Avx2 {
         None
     }
 }
+
+/// Proof that this CPU runs AVX-512 (foundation) besides everything
+/// [`Avx2`] proves: the sixteen-ray packet kernels.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Avx512 {
+    _detected: (),
+}
+
+impl Avx512 {
+    /// `Some` when the CPU has AVX-512F and the [`Avx2`] set.
+    pub fn detect() -> Option<Avx512> {
+        #[cfg(target_arch = "x86_64")]
+        {
+            if Avx2::detect().is_some() && is_x86_feature_detected!("avx512f") {
+                return Some(Avx512 { _detected: () });
+            }
+        }
+        None
+    }
+}

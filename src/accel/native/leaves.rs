@@ -5,17 +5,14 @@
 use glam::Vec3;
 
 use super::sphere;
+#[cfg(target_arch = "x86_64")]
+use super::traverse::packet::{Lanes, PacketRays, Width, MAX_LANES};
 use super::traverse::Leaves;
 #[cfg(target_arch = "x86_64")]
-use std::arch::x86_64::*;
-
-#[cfg(target_arch = "x86_64")]
-use super::traverse::packet::{lane_mask, PacketRays, LANES};
-#[cfg(target_arch = "x86_64")]
 use super::traverse::PacketLeaves;
-#[cfg(target_arch = "x86_64")]
-use super::triangle::eight::{self, Rays8};
 use super::triangle::{TriangleBlock4, TriangleTest, Watertight};
+#[cfg(target_arch = "x86_64")]
+use super::triangle::{EDGE_SLACK, PARALLEL_DETERMINANT, PREFILTER_HIGH, PREFILTER_LOW};
 use super::SphereItem;
 use crate::geom::Ray;
 
@@ -137,27 +134,92 @@ impl Leaves for SphereLeaves<'_> {
     }
 }
 
-/// Möller–Trumbore blocks for a packet of eight rays: each triangle
-/// against all of them at once ([`eight::hit`]); remembers per lane the
-/// nearest hit's block and lane (`4 * block + lane`), `u` and `v`.
+/// Per ray, triangle `i` of `block`: the rays (lanes in `live`) it hits
+/// within `(t_min, t_max]` and their `t, u, v`. The operations of
+/// [`TriangleBlock4::nearest`] for that triangle, in the same order, lane
+/// by lane, so each ray gets the bits its single-ray test computes; none
+/// when the test rejects every live lane before the division.
+///
+/// # Safety
+/// Only from `W`'s `#[target_feature]` code.
 #[cfg(target_arch = "x86_64")]
-pub(super) struct BlockPacket<'a> {
+#[inline(always)]
+unsafe fn lanes_hit<W: Width>(
+    block: &TriangleBlock4,
+    i: usize,
+    r: &Lanes<W>,
+    t_max: W::V,
+    live: u32,
+) -> (u32, W::V, W::V, W::V) {
+    let at = |k: usize, axis: usize| W::splat(block.corner(k, axis, i));
+    let (v0x, v0y, v0z) = (at(0, 0), at(0, 1), at(0, 2));
+    let (e1x, e1y, e1z) = (at(1, 0), at(1, 1), at(1, 2));
+    let (e2x, e2y, e2z) = (at(2, 0), at(2, 1), at(2, 2));
+    let [dx, dy, dz] = r.dir;
+    let (mul, sub, add) = (
+        |a, b| W::mul(a, b),
+        |a, b| W::sub(a, b),
+        |a, b| W::add(a, b),
+    );
+    let px = sub(mul(dy, e2z), mul(e2y, dz));
+    let py = sub(mul(dz, e2x), mul(e2z, dx));
+    let pz = sub(mul(dx, e2y), mul(e2x, dy));
+    let det = add(add(mul(e1x, px), mul(e1y, py)), mul(e1z, pz));
+    let abs = W::abs(det);
+    // The determinant's sign bit alone.
+    let sign = W::xor(det, abs);
+    let sx = sub(r.origin[0], v0x);
+    let sy = sub(r.origin[1], v0y);
+    let sz = sub(r.origin[2], v0z);
+    let qx = sub(mul(sy, e1z), mul(e1y, sz));
+    let qy = sub(mul(sz, e1x), mul(e1z, sx));
+    let qz = sub(mul(sx, e1y), mul(e1x, sy));
+    let u_det = add(add(mul(sx, px), mul(sy, py)), mul(sz, pz));
+    let v_det = add(add(mul(dx, qx), mul(dy, qy)), mul(dz, qz));
+    let (u_abs, v_abs) = (W::xor(u_det, sign), W::xor(v_det, sign));
+    let low = mul(abs, W::splat(-PREFILTER_LOW));
+    let inside = live
+        & W::ge(abs, W::splat(PARALLEL_DETERMINANT))
+        & W::ge(u_abs, low)
+        & W::ge(v_abs, low)
+        & W::le(add(u_abs, v_abs), mul(abs, W::splat(PREFILTER_HIGH)));
+    let zero = W::splat(0.0);
+    if inside == 0 {
+        return (0, zero, zero, zero);
+    }
+    let inv = W::div(W::splat(1.0), det);
+    let (u, v) = (mul(u_det, inv), mul(v_det, inv));
+    let t = mul(add(add(mul(e2x, qx), mul(e2y, qy)), mul(e2z, qz)), inv);
+    let valid = inside
+        & W::ge(u, W::splat(-EDGE_SLACK))
+        & W::ge(v, W::splat(-EDGE_SLACK))
+        & W::le(add(u, v), W::splat(1.0 + EDGE_SLACK))
+        & W::gt(t, r.t_min)
+        & W::le(t, t_max);
+    (valid, t, u, v)
+}
+
+/// Möller–Trumbore blocks for a packet: each triangle against all its rays
+/// at once ([`lanes_hit`]); remembers per lane the nearest hit's block and
+/// lane (`4 * block + lane`), `u` and `v`.
+#[cfg(target_arch = "x86_64")]
+pub(super) struct BlockPacket<'a, W: Width> {
     pub(super) blocks: &'a [TriangleBlock4],
-    pub(super) rays: &'a Rays8,
-    pub(super) best: [u32; LANES],
-    pub(super) u: [f32; LANES],
-    pub(super) v: [f32; LANES],
+    pub(super) rays: &'a Lanes<W>,
+    pub(super) best: [u32; MAX_LANES],
+    pub(super) u: [f32; MAX_LANES],
+    pub(super) v: [f32; MAX_LANES],
 }
 
 #[cfg(target_arch = "x86_64")]
-impl<'a> BlockPacket<'a> {
-    pub(super) fn new(blocks: &'a [TriangleBlock4], rays: &'a PacketRays) -> BlockPacket<'a> {
+impl<'a, W: Width> BlockPacket<'a, W> {
+    pub(super) fn new(blocks: &'a [TriangleBlock4], rays: &'a PacketRays<W>) -> Self {
         BlockPacket {
             blocks,
             rays: &rays.lanes,
-            best: [u32::MAX; LANES],
-            u: [0.0; LANES],
-            v: [0.0; LANES],
+            best: [u32::MAX; MAX_LANES],
+            u: [0.0; MAX_LANES],
+            v: [0.0; MAX_LANES],
         }
     }
 
@@ -181,18 +243,16 @@ impl<'a> BlockPacket<'a> {
 }
 
 #[cfg(target_arch = "x86_64")]
-impl PacketLeaves for BlockPacket<'_> {
-    #[target_feature(enable = "avx2,fma,popcnt,lzcnt,bmi1,bmi2")]
-    #[inline]
+impl<W: Width> PacketLeaves<W> for BlockPacket<'_, W> {
+    #[inline(always)]
     unsafe fn nearest(
         &mut self,
         first: u32,
         count: u32,
         mask: u32,
-        t_max: &mut [f32; LANES],
+        t_max: &mut [f32; MAX_LANES],
     ) -> u32 {
-        let live = lane_mask(mask);
-        let mut t_lanes = _mm256_loadu_ps(t_max.as_ptr());
+        let mut t_lanes = W::load(t_max);
         let mut found = 0;
         for b in first..first + count {
             let block = &self.blocks[b as usize];
@@ -203,34 +263,33 @@ impl PacketLeaves for BlockPacket<'_> {
                 if block.prim(i) == u32::MAX {
                     break;
                 }
-                let (hits, t, u, v) = eight::hit(block, i, self.rays, t_lanes, live);
+                let (hits, t, u, v) = lanes_hit::<W>(block, i, self.rays, t_lanes, mask);
                 if hits == 0 {
                     continue;
                 }
                 found |= hits;
-                let take = lane_mask(hits);
-                t_lanes = _mm256_blendv_ps(t_lanes, t, take);
+                t_lanes = W::select(hits, t_lanes, t);
+                let (mut us, mut vs) = ([0.0f32; MAX_LANES], [0.0f32; MAX_LANES]);
+                W::store(&mut us, u);
+                W::store(&mut vs, v);
                 let id = 4 * b + i as u32;
-                for lane in (0..LANES).filter(|l| hits & (1 << l) != 0) {
+                let mut m = hits;
+                while m != 0 {
+                    let lane = m.trailing_zeros() as usize;
+                    m &= m - 1;
                     self.best[lane] = id;
-                }
-                let (mut us, mut vs) = ([0.0f32; LANES], [0.0f32; LANES]);
-                _mm256_storeu_ps(us.as_mut_ptr(), u);
-                _mm256_storeu_ps(vs.as_mut_ptr(), v);
-                for lane in (0..LANES).filter(|l| hits & (1 << l) != 0) {
                     self.u[lane] = us[lane];
                     self.v[lane] = vs[lane];
                 }
             }
         }
-        _mm256_storeu_ps(t_max.as_mut_ptr(), t_lanes);
+        W::store(t_max, t_lanes);
         found
     }
 
-    #[target_feature(enable = "avx2,fma,popcnt,lzcnt,bmi1,bmi2")]
-    #[inline]
-    unsafe fn any(&mut self, first: u32, count: u32, mask: u32, t_max: &[f32; LANES]) -> u32 {
-        let t_lanes = _mm256_loadu_ps(t_max.as_ptr());
+    #[inline(always)]
+    unsafe fn any(&mut self, first: u32, count: u32, mask: u32, t_max: &[f32; MAX_LANES]) -> u32 {
+        let t_lanes = W::load(t_max);
         let mut live = mask;
         for b in first..first + count {
             let block = &self.blocks[b as usize];
@@ -238,7 +297,7 @@ impl PacketLeaves for BlockPacket<'_> {
                 if block.prim(i) == u32::MAX {
                     break;
                 }
-                let (hits, ..) = eight::hit(block, i, self.rays, t_lanes, lane_mask(live));
+                let (hits, ..) = lanes_hit::<W>(block, i, self.rays, t_lanes, live);
                 live &= !hits;
                 if live == 0 {
                     return mask;

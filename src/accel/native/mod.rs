@@ -29,13 +29,13 @@ use glam::{Vec3, Vec3A};
 use rayon::prelude::*;
 
 use self::build::{BuildMethod, BuiltTree, TreeShape};
-use self::cpu::Avx2;
+use self::cpu::{Avx2, Avx512};
 #[cfg(target_arch = "x86_64")]
 use self::leaves::BlockPacket;
 use self::leaves::{BlockLeaves, SphereLeaves, WatertightLeaves};
 use self::node::{Node8, MAX_LEAF_FIRST};
 #[cfg(target_arch = "x86_64")]
-use self::traverse::packet::{self, Packet, PacketRays};
+use self::traverse::packet::{self, Packet, PacketRays, Width, X16, X8};
 use self::traverse::{BoxRay, BoxTest, Leaves, Work};
 use self::tree::{Tree, MAX_DEPTH};
 use self::triangle::{TriangleBlock4, TriangleMode, TriangleTest, Watertight};
@@ -54,6 +54,9 @@ pub struct NativeOptions {
     pub max_leaf: usize,
     /// Traverse with AVX2 when the CPU has it (else the scalar kernel).
     pub simd: bool,
+    /// Rays per packet of the batch queries: 0 the widest the CPU runs
+    /// (16 with AVX-512, else 8), or 8 (AVX2 lanes even with AVX-512).
+    pub packet_lanes: usize,
 }
 
 impl NativeOptions {
@@ -62,6 +65,7 @@ impl NativeOptions {
         method: BuildMethod::Sah,
         max_leaf: 0,
         simd: true,
+        packet_lanes: 0,
     };
 
     /// The largest leaf for a tree over `primitives`: `max_leaf`, or when
@@ -126,6 +130,8 @@ struct SphereItem {
 pub struct NativeBvh {
     options: NativeOptions,
     cpu: Option<Avx2>,
+    /// The batch queries' kernels.
+    packets: PacketKernels,
     box_test: BoxTest,
     triangles: Tree,
     triangle_store: TriangleStore,
@@ -246,6 +252,7 @@ impl NativeBvh {
             options: *options,
             leaf_cap: options.leaf_cap(mesh.len()),
             cpu: if options.simd { Avx2::detect() } else { None },
+            packets: PacketKernels::detect(options),
             box_test: match options.triangle {
                 TriangleMode::MollerTrumbore => BoxTest::Fast,
                 TriangleMode::Watertight => BoxTest::Robust,
@@ -507,156 +514,116 @@ fn lanes_of(mut mask: u32) -> impl Iterator<Item = usize> {
     })
 }
 
-impl NativeBvh {
-    /// Up to eight rays of [`Accel::closest_hits`]: the traceable ones of
-    /// one octant as a packet when there are [`MIN_PACKET`] of them, the
-    /// others one at a time. Packets need AVX2 and Möller–Trumbore blocks;
-    /// without them every ray goes alone.
-    fn closest_group(&self, rays: &[Ray], out: &mut [Option<Hit>], counters: &mut TraceCounters) {
-        counters.rays += rays.len() as u64;
-        #[cfg(target_arch = "x86_64")]
-        if let (Some(cpu), TriangleStore::Blocks(blocks)) = (self.cpu, &self.triangle_store) {
-            if !self.triangles.is_empty() {
-                // SAFETY: the token proves AVX2.
-                let prepared = unsafe { PacketRays::load(rays) };
-                let mut rest = prepared.traceable;
-                let lanes = (1u32 << out.len()) - 1;
-                for i in lanes_of(lanes & !rest) {
-                    out[i] = None;
-                }
-                while rest != 0 {
-                    let group = prepared.same_octant(rest);
-                    rest &= !group;
-                    if group.count_ones() >= MIN_PACKET {
-                        let p = Packet {
-                            rays: &prepared,
-                            mask: group,
-                        };
-                        self.closest_packet(cpu, blocks, rays, &p, out, counters);
-                    } else {
-                        for i in lanes_of(group) {
-                            out[i] = self.closest_alone(&rays[i], counters);
-                        }
-                    }
-                }
-                return;
-            }
-        }
-        for (ray, answer) in rays.iter().zip(out.iter_mut()) {
-            *answer = ray
-                .traceable_vectors()
-                .and_then(|v| self.closest(ray, v, counters));
-        }
-    }
-
-    /// Up to eight rays of [`Accel::occluded_all`], as [`Self::closest_group`].
-    fn occluded_group(&self, rays: &[Ray], out: &mut [bool], counters: &mut TraceCounters) {
-        counters.rays += rays.len() as u64;
-        #[cfg(target_arch = "x86_64")]
-        if let (Some(cpu), TriangleStore::Blocks(blocks)) = (self.cpu, &self.triangle_store) {
-            if !self.triangles.is_empty() {
-                // SAFETY: the token proves AVX2.
-                let prepared = unsafe { PacketRays::load(rays) };
-                let mut rest = prepared.traceable;
-                let lanes = (1u32 << out.len()) - 1;
-                for i in lanes_of(lanes & !rest) {
-                    out[i] = false;
-                }
-                while rest != 0 {
-                    let group = prepared.same_octant(rest);
-                    rest &= !group;
-                    if group.count_ones() >= MIN_PACKET {
-                        let p = Packet {
-                            rays: &prepared,
-                            mask: group,
-                        };
-                        self.occluded_packet(cpu, blocks, rays, &p, out, counters);
-                    } else {
-                        for i in lanes_of(group) {
-                            out[i] = self.occluded_alone(&rays[i], counters);
-                        }
-                    }
-                }
-                return;
-            }
-        }
-        for (ray, answer) in rays.iter().zip(out.iter_mut()) {
-            *answer = ray
-                .traceable_vectors()
-                .is_some_and(|v| self.any(ray, v, counters));
-        }
-    }
-
-    /// A ray of a batch traced alone (a miss if it is not traceable).
-    fn closest_alone(&self, ray: &Ray, counters: &mut TraceCounters) -> Option<Hit> {
-        let vectors = ray.traceable_vectors()?;
-        self.closest(ray, vectors, counters)
-    }
-
-    fn occluded_alone(&self, ray: &Ray, counters: &mut TraceCounters) -> bool {
-        ray.traceable_vectors()
-            .is_some_and(|v| self.any(ray, v, counters))
-    }
-
-    /// One packet's closest hits: triangles together, then spheres (if
-    /// any) ray by ray within each ray's triangle hit, as
-    /// [`Self::closest`] does.
+/// Which packet kernels a tree's batch queries run.
+#[derive(Clone, Copy, Debug)]
+enum PacketKernels {
+    /// Sixteen rays in AVX-512 lanes.
     #[cfg(target_arch = "x86_64")]
-    fn closest_packet(
-        &self,
-        cpu: Avx2,
+    Avx512(Avx512),
+    /// Eight rays in AVX2 lanes.
+    #[cfg(target_arch = "x86_64")]
+    Avx2(Avx2),
+    /// None: every ray alone.
+    None,
+}
+
+impl PacketKernels {
+    /// The widest kernels the CPU runs, unless `options` turn SIMD off.
+    fn detect(options: &NativeOptions) -> PacketKernels {
+        if !options.simd {
+            return PacketKernels::None;
+        }
+        #[cfg(target_arch = "x86_64")]
+        {
+            if let Some(wide) = Avx512::detect().filter(|_| options.packet_lanes != 8) {
+                return PacketKernels::Avx512(wide);
+            }
+            if let Some(cpu) = Avx2::detect() {
+                return PacketKernels::Avx2(cpu);
+            }
+        }
+        PacketKernels::None
+    }
+
+    /// Rays per group of a batch.
+    fn lanes(self) -> usize {
+        match self {
+            #[cfg(target_arch = "x86_64")]
+            PacketKernels::Avx512(_) => 16,
+            #[cfg(target_arch = "x86_64")]
+            PacketKernels::Avx2(_) => 8,
+            PacketKernels::None => 8,
+        }
+    }
+}
+
+/// One batch query's per-ray work, for the generic group code: the
+/// closest hit or occlusion.
+#[cfg(target_arch = "x86_64")]
+trait Query {
+    type Answer: Copy;
+    const MISS: Self::Answer;
+    fn alone(bvh: &NativeBvh, ray: &Ray, counters: &mut TraceCounters) -> Self::Answer;
+    /// # Safety
+    /// From `W`'s `#[target_feature]` code, with a non-empty tree.
+    unsafe fn packet<W: Width>(
+        bvh: &NativeBvh,
         blocks: &[TriangleBlock4],
         rays: &[Ray],
-        p: &Packet,
+        p: &Packet<W>,
+        out: &mut [Self::Answer],
+        work: &mut Work,
+    );
+}
+
+#[cfg(target_arch = "x86_64")]
+struct Closest;
+
+#[cfg(target_arch = "x86_64")]
+struct Occluded;
+
+#[cfg(target_arch = "x86_64")]
+impl Query for Closest {
+    type Answer = Option<Hit>;
+    const MISS: Option<Hit> = None;
+    fn alone(bvh: &NativeBvh, ray: &Ray, counters: &mut TraceCounters) -> Option<Hit> {
+        let vectors = ray.traceable_vectors()?;
+        bvh.closest(ray, vectors, counters)
+    }
+
+    /// Triangles together, then spheres (if any) ray by ray within each
+    /// ray's triangle hit, as [`NativeBvh::closest`] does.
+    #[inline(always)]
+    unsafe fn packet<W: Width>(
+        bvh: &NativeBvh,
+        blocks: &[TriangleBlock4],
+        rays: &[Ray],
+        p: &Packet<W>,
         out: &mut [Option<Hit>],
-        counters: &mut TraceCounters,
+        work: &mut Work,
     ) {
         let mut t_max = p.rays.t_max();
-        let mut work = Work::default();
-        let tree = &self.triangles;
-        let test = self.box_test;
+        let (tree, test, cpu) = (&bvh.triangles, bvh.box_test, bvh.cpu);
         // Ray `i` alone from `start`, its hit kept in the packet's leaves.
         let mut alone =
-            |leaves: &mut BlockPacket, i: usize, start, t: &mut f32, work: &mut Work| {
+            |leaves: &mut BlockPacket<W>, i: usize, start, t: &mut f32, work: &mut Work| {
                 let mut one = BlockLeaves {
                     blocks,
                     ray: &rays[i],
                     best: None,
                 };
                 let box_ray = box_ray_of(&rays[i]);
-                let hit =
-                    traverse::closest(tree, &box_ray, t, &mut one, Some(cpu), test, work, start);
+                let hit = traverse::closest(tree, &box_ray, t, &mut one, cpu, test, work, start);
                 leaves.set(i, one.best);
                 hit
             };
-        let single_below = SINGLE_BELOW;
-        // SAFETY: the token proves the CPU features; the tree is not empty
-        // (`closest_group` checked).
-        let leaves = unsafe {
-            let mut leaves = BlockPacket::new(blocks, p.rays);
-            if test == BoxTest::Fast && p.fast_test_fits() {
-                packet::closest::<false, _>(
-                    tree,
-                    p,
-                    &mut t_max,
-                    &mut leaves,
-                    &mut alone,
-                    &mut work,
-                    single_below,
-                );
-            } else {
-                packet::closest::<true, _>(
-                    tree,
-                    p,
-                    &mut t_max,
-                    &mut leaves,
-                    &mut alone,
-                    &mut work,
-                    single_below,
-                );
-            }
-            leaves
-        };
+        let mut leaves = BlockPacket::new(blocks, p.rays);
+        let (t, l) = (&mut t_max, &mut leaves);
+        if test == BoxTest::Fast && p.fast_test_fits() {
+            packet::closest::<W, false, _>(tree, p, t, l, &mut alone, work, SINGLE_BELOW);
+        } else {
+            packet::closest::<W, true, _>(tree, p, t, l, &mut alone, work, SINGLE_BELOW);
+        }
         for i in lanes_of(p.mask) {
             let mut hit = leaves.hit(i).map(|(prim, u, v)| Hit {
                 t: t_max[i],
@@ -664,75 +631,169 @@ impl NativeBvh {
                 u,
                 v,
             });
-            if !self.sphere_items.is_empty() {
-                hit = self
-                    .closest_sphere(&rays[i], &box_ray_of(&rays[i]), &mut t_max[i], &mut work)
+            if !bvh.sphere_items.is_empty() {
+                let box_ray = box_ray_of(&rays[i]);
+                hit = bvh
+                    .closest_sphere(&rays[i], &box_ray, &mut t_max[i], work)
                     .or(hit);
             }
             out[i] = hit;
         }
-        counters.box_tests += work.nodes * node::WIDTH as u64;
-        counters.prim_tests += work.items;
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+impl Query for Occluded {
+    type Answer = bool;
+    const MISS: bool = false;
+    fn alone(bvh: &NativeBvh, ray: &Ray, counters: &mut TraceCounters) -> bool {
+        ray.traceable_vectors()
+            .is_some_and(|v| bvh.any(ray, v, counters))
     }
 
-    /// Whether each ray of one packet is blocked: triangles together, then
-    /// spheres ray by ray for those not blocked, as [`Self::any`] does.
-    #[cfg(target_arch = "x86_64")]
-    fn occluded_packet(
-        &self,
-        cpu: Avx2,
+    /// Triangles together, then spheres ray by ray for those not blocked,
+    /// as [`NativeBvh::any`] does.
+    #[inline(always)]
+    unsafe fn packet<W: Width>(
+        bvh: &NativeBvh,
         blocks: &[TriangleBlock4],
         rays: &[Ray],
-        p: &Packet,
+        p: &Packet<W>,
         out: &mut [bool],
-        counters: &mut TraceCounters,
+        work: &mut Work,
     ) {
         let t_max = p.rays.t_max();
-        let mut work = Work::default();
-        let tree = &self.triangles;
-        let test = self.box_test;
-        let mut alone = |_: &mut BlockPacket, i: usize, start, t: f32, work: &mut Work| {
+        let (tree, test, cpu) = (&bvh.triangles, bvh.box_test, bvh.cpu);
+        let mut alone = |_: &mut BlockPacket<W>, i: usize, start, t: f32, work: &mut Work| {
             let mut one = BlockLeaves {
                 blocks,
                 ray: &rays[i],
                 best: None,
             };
             let box_ray = box_ray_of(&rays[i]);
-            traverse::any(tree, &box_ray, t, &mut one, Some(cpu), test, work, start)
+            traverse::any(tree, &box_ray, t, &mut one, cpu, test, work, start)
         };
-        let single_below = SINGLE_BELOW;
-        // SAFETY: as in `closest_packet`.
-        let blocked = unsafe {
-            let mut leaves = BlockPacket::new(blocks, p.rays);
-            if test == BoxTest::Fast && p.fast_test_fits() {
-                packet::any::<false, _>(
-                    tree,
-                    p,
-                    &t_max,
-                    &mut leaves,
-                    &mut alone,
-                    &mut work,
-                    single_below,
-                )
-            } else {
-                packet::any::<true, _>(
-                    tree,
-                    p,
-                    &t_max,
-                    &mut leaves,
-                    &mut alone,
-                    &mut work,
-                    single_below,
-                )
-            }
+        let mut leaves = BlockPacket::new(blocks, p.rays);
+        let blocked = if test == BoxTest::Fast && p.fast_test_fits() {
+            packet::any::<W, false, _>(tree, p, &t_max, &mut leaves, &mut alone, work, SINGLE_BELOW)
+        } else {
+            packet::any::<W, true, _>(tree, p, &t_max, &mut leaves, &mut alone, work, SINGLE_BELOW)
         };
         for i in lanes_of(p.mask) {
             out[i] = blocked & (1 << i) != 0
-                || (!self.sphere_items.is_empty()
-                    && self.any_sphere(&rays[i], &box_ray_of(&rays[i]), &mut work));
+                || (!bvh.sphere_items.is_empty()
+                    && bvh.any_sphere(&rays[i], &box_ray_of(&rays[i]), work));
+        }
+    }
+}
+
+impl NativeBvh {
+    /// A group of up to `W::N` rays of a batch query: the traceable ones
+    /// of one octant as a packet when there are [`MIN_PACKET`] of them,
+    /// the others one at a time.
+    ///
+    /// # Safety
+    /// From `W`'s `#[target_feature]` code; the triangle tree is not
+    /// empty.
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    unsafe fn group<W: Width, Q: Query>(
+        &self,
+        blocks: &[TriangleBlock4],
+        rays: &[Ray],
+        out: &mut [Q::Answer],
+        counters: &mut TraceCounters,
+    ) {
+        let prepared = PacketRays::<W>::load(rays);
+        let mut rest = prepared.traceable;
+        let lanes = (1u32 << out.len()) - 1;
+        for i in lanes_of(lanes & !rest) {
+            out[i] = Q::MISS;
+        }
+        let mut work = Work::default();
+        while rest != 0 {
+            let group = prepared.same_octant(rest);
+            rest &= !group;
+            if group.count_ones() >= MIN_PACKET {
+                let p = Packet {
+                    rays: &prepared,
+                    mask: group,
+                };
+                Q::packet::<W>(self, blocks, rays, &p, out, &mut work);
+            } else {
+                for i in lanes_of(group) {
+                    out[i] = Q::alone(self, &rays[i], counters);
+                }
+            }
         }
         counters.box_tests += work.nodes * node::WIDTH as u64;
         counters.prim_tests += work.items;
+    }
+
+    /// [`Self::group`] with eight rays in AVX2 lanes.
+    ///
+    /// # Safety
+    /// The CPU has AVX2 (the caller holds the token); the triangle tree is
+    /// not empty.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma,popcnt,lzcnt,bmi1,bmi2")]
+    unsafe fn group8<Q: Query>(
+        &self,
+        blocks: &[TriangleBlock4],
+        rays: &[Ray],
+        out: &mut [Q::Answer],
+        counters: &mut TraceCounters,
+    ) {
+        self.group::<X8, Q>(blocks, rays, out, counters)
+    }
+
+    /// [`Self::group`] with sixteen rays in AVX-512 lanes.
+    ///
+    /// # Safety
+    /// The CPU has AVX-512F and AVX2 (the caller holds the token); the
+    /// triangle tree is not empty.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx512f,avx2,fma,popcnt,lzcnt,bmi1,bmi2")]
+    unsafe fn group16<Q: Query>(
+        &self,
+        blocks: &[TriangleBlock4],
+        rays: &[Ray],
+        out: &mut [Q::Answer],
+        counters: &mut TraceCounters,
+    ) {
+        self.group::<X16, Q>(blocks, rays, out, counters)
+    }
+
+    /// A batch query through the packet kernels this tree may run; `None`
+    /// when it may not (no AVX2, watertight triangles, no triangles).
+    #[cfg(target_arch = "x86_64")]
+    fn batch<Q: Query>(
+        &self,
+        rays: &[Ray],
+        out: &mut [Q::Answer],
+        counters: &mut TraceCounters,
+    ) -> Option<()> {
+        let TriangleStore::Blocks(blocks) = &self.triangle_store else {
+            return None;
+        };
+        if self.triangles.is_empty() {
+            return None;
+        }
+        let kernels = self.packets;
+        let lanes = kernels.lanes();
+        for (rays, out) in rays.chunks(lanes).zip(out.chunks_mut(lanes)) {
+            counters.rays += rays.len() as u64;
+            // SAFETY: each token proves its CPU features; the triangle
+            // tree is not empty (checked above).
+            unsafe {
+                match kernels {
+                    PacketKernels::Avx512(_) => self.group16::<Q>(blocks, rays, out, counters),
+                    PacketKernels::Avx2(_) => self.group8::<Q>(blocks, rays, out, counters),
+                    PacketKernels::None => return None,
+                }
+            }
+        }
+        Some(())
     }
 }
 
@@ -751,17 +812,28 @@ impl Accel for NativeBvh {
         self.any(ray, vectors, counters)
     }
 
+    /// Packets of sixteen rays (AVX-512) or eight (AVX2); one at a time
+    /// without them.
     fn closest_hits(&self, rays: &[Ray], out: &mut [Option<Hit>], counters: &mut TraceCounters) {
         debug_assert_eq!(rays.len(), out.len());
-        for (rays, out) in rays.chunks(8).zip(out.chunks_mut(8)) {
-            self.closest_group(rays, out, counters);
+        #[cfg(target_arch = "x86_64")]
+        if self.batch::<Closest>(rays, out, counters).is_some() {
+            return;
+        }
+        for (ray, answer) in rays.iter().zip(out.iter_mut()) {
+            *answer = self.closest_hit(ray, counters);
         }
     }
 
+    /// As [`Self::closest_hits`].
     fn occluded_all(&self, rays: &[Ray], out: &mut [bool], counters: &mut TraceCounters) {
         debug_assert_eq!(rays.len(), out.len());
-        for (rays, out) in rays.chunks(8).zip(out.chunks_mut(8)) {
-            self.occluded_group(rays, out, counters);
+        #[cfg(target_arch = "x86_64")]
+        if self.batch::<Occluded>(rays, out, counters).is_some() {
+            return;
+        }
+        for (ray, answer) in rays.iter().zip(out.iter_mut()) {
+            *answer = self.occluded(ray, counters);
         }
     }
 
@@ -791,10 +863,16 @@ impl Accel for NativeBvh {
                 depth: self.shape.depth,
                 sah_cost: self.shape.sah_cost,
             }),
-            batch_call: if self.simd() {
-                "packets of 8 rays (AVX2), single rays below 4 per octant"
-            } else {
-                "single-ray loop (no AVX2)"
+            batch_call: match self.packets {
+                #[cfg(target_arch = "x86_64")]
+                PacketKernels::Avx512(_) => {
+                    "packets of 16 rays (AVX-512), single rays below 4 per octant"
+                }
+                #[cfg(target_arch = "x86_64")]
+                PacketKernels::Avx2(_) => {
+                    "packets of 8 rays (AVX2), single rays below 4 per octant"
+                }
+                PacketKernels::None => "single-ray loop (no AVX2)",
             },
             details: format!(
                 "{} triangles, {} build, max leaf {}, 8-wide {} traversal",

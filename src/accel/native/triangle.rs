@@ -134,8 +134,8 @@ const SIGN: u32 = 1 << 31;
 /// The prefilter's `u + v <= 1` is tested as `U + V <= |det| * slack`: the
 /// classic test's `fl(U / det) + fl(V / det) <= 1` allows a few ulps more.
 const PREFILTER_SLACK: f32 = 1.0 + 16.0 * f32::EPSILON;
-const PREFILTER_LOW: f32 = EDGE_SLACK * PREFILTER_SLACK;
-const PREFILTER_HIGH: f32 = (1.0 + EDGE_SLACK) * PREFILTER_SLACK;
+pub(super) const PREFILTER_LOW: f32 = EDGE_SLACK * PREFILTER_SLACK;
+pub(super) const PREFILTER_HIGH: f32 = (1.0 + EDGE_SLACK) * PREFILTER_SLACK;
 
 /// Möller-Trumbore accepts barycentrics this far outside the triangle: its
 /// rounding differs between the two triangles of an edge, so a ray aimed
@@ -256,6 +256,12 @@ impl TriangleBlock4 {
     /// Lane `i` as `[v0, e1, e2]`.
     pub fn lane(&self, i: usize) -> [Vec3; 3] {
         [0, 1, 2].map(|k| Vec3::new(self.v[k][0][i], self.v[k][1][i], self.v[k][2][i]))
+    }
+
+    /// Coordinate `axis` of lane `i`'s `v0` (`k` 0), `e1` (1) or `e2` (2).
+    #[inline(always)]
+    pub fn corner(&self, k: usize, axis: usize, i: usize) -> f32 {
+        self.v[k][axis][i]
     }
 
     /// The primitive id of lane `i`.
@@ -505,105 +511,5 @@ mod tests {
             leaks, 0,
             "{leaks} of 999 rays through the shared edge leaked"
         );
-    }
-}
-
-/// Eight rays against one triangle of a [`TriangleBlock4`] at once, one ray
-/// per lane (packet traversal's leaf test): the operations of
-/// [`TriangleBlock4::nearest`] for that triangle, in the same order, so
-/// each ray gets the bits its single-ray test computes.
-#[cfg(target_arch = "x86_64")]
-pub mod eight {
-    use std::arch::x86_64::*;
-
-    use super::*;
-
-    /// Eight rays as lanes: origin and direction per axis, `t_min`.
-    pub struct Rays8 {
-        pub origin: [__m256; 3],
-        pub dir: [__m256; 3],
-        pub t_min: __m256,
-    }
-
-    /// Per ray, triangle `i` of `block`: the rays hit within `(t_min,
-    /// t_max]` (a lane mask; only lanes in `live`, and none when the
-    /// triangle test rejects all of them before the division) and their
-    /// `t, u, v`.
-    ///
-    /// # Safety
-    /// Needs AVX2 (the caller's token).
-    #[target_feature(enable = "avx2,fma,popcnt,lzcnt,bmi1,bmi2")]
-    #[inline]
-    pub unsafe fn hit(
-        block: &TriangleBlock4,
-        i: usize,
-        r: &Rays8,
-        t_max: __m256,
-        live: __m256,
-    ) -> (u32, __m256, __m256, __m256) {
-        let at = |k: usize, axis: usize| _mm256_set1_ps(block.v[k][axis][i]);
-        let (v0x, v0y, v0z) = (at(0, 0), at(0, 1), at(0, 2));
-        let (e1x, e1y, e1z) = (at(1, 0), at(1, 1), at(1, 2));
-        let (e2x, e2y, e2z) = (at(2, 0), at(2, 1), at(2, 2));
-        let [dx, dy, dz] = r.dir;
-        let (mul, sub, add) = (
-            |a, b| _mm256_mul_ps(a, b),
-            |a, b| _mm256_sub_ps(a, b),
-            |a, b| _mm256_add_ps(a, b),
-        );
-        let px = sub(mul(dy, e2z), mul(e2y, dz));
-        let py = sub(mul(dz, e2x), mul(e2z, dx));
-        let pz = sub(mul(dx, e2y), mul(e2x, dy));
-        let det = add(add(mul(e1x, px), mul(e1y, py)), mul(e1z, pz));
-        let sign_bit = _mm256_set1_ps(-0.0);
-        let abs = _mm256_andnot_ps(sign_bit, det);
-        let sign = _mm256_and_ps(sign_bit, det);
-        let sx = sub(r.origin[0], v0x);
-        let sy = sub(r.origin[1], v0y);
-        let sz = sub(r.origin[2], v0z);
-        let qx = sub(mul(sy, e1z), mul(e1y, sz));
-        let qy = sub(mul(sz, e1x), mul(e1z, sx));
-        let qz = sub(mul(sx, e1y), mul(e1x, sy));
-        let u_det = add(add(mul(sx, px), mul(sy, py)), mul(sz, pz));
-        let v_det = add(add(mul(dx, qx), mul(dy, qy)), mul(dz, qz));
-        let (u_abs, v_abs) = (_mm256_xor_ps(u_det, sign), _mm256_xor_ps(v_det, sign));
-        let low = mul(abs, _mm256_set1_ps(-PREFILTER_LOW));
-        let ge = |a, b| _mm256_cmp_ps::<_CMP_GE_OQ>(a, b);
-        let le = |a, b| _mm256_cmp_ps::<_CMP_LE_OQ>(a, b);
-        let and = |a, b| _mm256_and_ps(a, b);
-        let inside = and(
-            and(
-                and(
-                    ge(abs, _mm256_set1_ps(PARALLEL_DETERMINANT)),
-                    ge(u_abs, low),
-                ),
-                and(
-                    ge(v_abs, low),
-                    le(add(u_abs, v_abs), mul(abs, _mm256_set1_ps(PREFILTER_HIGH))),
-                ),
-            ),
-            live,
-        );
-        let zero = _mm256_setzero_ps();
-        if _mm256_movemask_ps(inside) == 0 {
-            return (0, zero, zero, zero);
-        }
-        let inv = _mm256_div_ps(_mm256_set1_ps(1.0), det);
-        let (u, v) = (mul(u_det, inv), mul(v_det, inv));
-        let t = mul(add(add(mul(e2x, qx), mul(e2y, qy)), mul(e2z, qz)), inv);
-        let valid = and(
-            and(
-                inside,
-                and(
-                    and(
-                        ge(u, _mm256_set1_ps(-EDGE_SLACK)),
-                        ge(v, _mm256_set1_ps(-EDGE_SLACK)),
-                    ),
-                    le(add(u, v), _mm256_set1_ps(1.0 + EDGE_SLACK)),
-                ),
-            ),
-            and(_mm256_cmp_ps::<_CMP_GT_OQ>(t, r.t_min), le(t, t_max)),
-        );
-        (_mm256_movemask_ps(valid) as u32, t, u, v)
     }
 }

@@ -62,21 +62,21 @@ pub trait Leaves {
 }
 
 /// What a leaf test answers for a packet's rays at once (lanes of
-/// [`packet::LANES`]); implemented for triangle blocks.
+/// width `W`); implemented for triangle blocks.
 #[cfg(target_arch = "x86_64")]
-pub trait PacketLeaves {
+pub trait PacketLeaves<W: packet::Width> {
     /// For each ray (lane) in `mask`, the nearest hit among `count` items
     /// from `first` no farther than its `t_max`, which shrinks to it; the
     /// lanes hit. The implementation remembers what each lane hit.
     ///
     /// # Safety
-    /// Needs AVX2 (the caller's token).
+    /// Only from `W`'s `#[target_feature]` code ([`packet::Width`]).
     unsafe fn nearest(
         &mut self,
         first: u32,
         count: u32,
         mask: u32,
-        t_max: &mut [f32; packet::LANES],
+        t_max: &mut [f32; packet::MAX_LANES],
     ) -> u32;
     /// The rays in `mask` that hit anything within their `t_max`.
     ///
@@ -87,7 +87,7 @@ pub trait PacketLeaves {
         first: u32,
         count: u32,
         mask: u32,
-        t_max: &[f32; packet::LANES],
+        t_max: &[f32; packet::MAX_LANES],
     ) -> u32;
 }
 

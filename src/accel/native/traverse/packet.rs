@@ -1,4 +1,4 @@
-//! Packet traversal: up to eight rays of one octant walk the tree together
+//! Packet traversal: up to sixteen rays of one octant walk the tree together
 //! (Wald et al. 2001, "Interactive Rendering with Coherent Ray Tracing";
 //! the hybrid packet/single scheme of Benthin et al. 2012, "Combining
 //! Single and Packet-Ray Tracing for Arbitrary Ray Distributions on the
@@ -9,11 +9,12 @@
 //! Bounding Volume Hierarchies", interval arithmetic over the packet's
 //! origins and reciprocal directions) culls the children no ray of the
 //! packet can enter. Each child that passes is then tested against the
-//! packet's rays, eight lanes at once, giving the rays that enter it;
-//! children are pushed with those lanes in the octant's front-to-back
-//! order. A leaf is tested by each of its rays alone, with the single-ray
-//! leaf test. A child entered by fewer than `single_below` rays is handed
-//! to the single-ray kernel, one ray at a time, from that child down.
+//! packet's rays, one lane per ray (eight with AVX2, [`X8`]; sixteen with
+//! AVX-512, [`X16`]), giving the rays that enter it; children are pushed
+//! with those lanes in the octant's front-to-back order. A leaf tests each
+//! triangle against the packet's rays at once. A child entered by fewer
+//! than `single_below` rays is handed to the single-ray kernel, one ray at
+//! a time, from that child down.
 //!
 //! The same answers as single rays, by construction:
 //! - the lane test is the single-ray slab test lane by lane: the same
@@ -25,7 +26,8 @@
 //!   interval's near distance is at most every lane's computed near
 //!   distance, its far distance at least every lane's far distance: it
 //!   never culls a child that a ray of the packet would enter;
-//! - leaves run the single-ray leaf test with the ray's own `t_max`.
+//! - leaves run the single-ray triangle test's operations lane by lane,
+//!   each ray with its own `t_max`.
 //!
 //! So each ray's hit is the nearest of the primitives its single-ray test
 //! accepts; only between primitives at exactly the same distance may the
@@ -35,135 +37,92 @@
 use std::arch::x86_64::*;
 
 use super::*;
-use crate::accel::native::triangle::eight::Rays8;
 use crate::geom::Ray;
 
-/// Rays in a packet.
-pub const LANES: usize = 8;
+/// Most rays in a packet: the lane arrays' length for either width.
+pub const MAX_LANES: usize = 16;
 
-/// Up to eight rays as lanes, with what the kernels need, computed eight
-/// lanes at a time by the operations [`BoxRay::new`] and
-/// [`Ray::traceable_vectors`] use per ray (so each lane holds the bits the
-/// single-ray kernel computes). Lanes past the rays given repeat the last.
-pub struct PacketRays {
-    /// Origins, directions and `t_min`, as the leaf test takes them.
-    pub lanes: Rays8,
-    inv: [__m256; 3],
-    /// The fast test's constants per axis: near `c`, far `r`, far `c`.
-    fast: [[__m256; 3]; 3],
-    t_max: __m256,
-    /// Lanes whose ray is traceable.
-    pub traceable: u32,
-    /// Lanes whose fast-test constants are finite.
-    fits: u32,
-    /// Per axis, the lanes whose direction is negative.
-    negative: [u32; 3],
+/// One packet width's operations on lanes of rays: [`X8`] (AVX2, eight
+/// rays) and [`X16`] (AVX-512, sixteen). Each is the operation the
+/// single-ray code uses, lane by lane (IEEE arithmetic, ordered quiet
+/// comparisons), so every lane computes the single ray's bits. Masks hold
+/// one bit per lane.
+///
+/// # Safety
+/// The methods need the width's CPU features; they are reached only from
+/// the width's `#[target_feature]` entry points, which a detected token
+/// guards, and are always inlined into them.
+pub unsafe trait Width: Copy {
+    type V: Copy;
+    /// Rays per packet.
+    const N: usize;
+    unsafe fn splat(x: f32) -> Self::V;
+    unsafe fn add(a: Self::V, b: Self::V) -> Self::V;
+    unsafe fn sub(a: Self::V, b: Self::V) -> Self::V;
+    unsafe fn mul(a: Self::V, b: Self::V) -> Self::V;
+    unsafe fn div(a: Self::V, b: Self::V) -> Self::V;
+    /// `a * b - c`, rounded once.
+    unsafe fn fmsub(a: Self::V, b: Self::V, c: Self::V) -> Self::V;
+    /// `_mm*_min_ps` / `_mm*_max_ps`: the second operand where either is
+    /// NaN.
+    unsafe fn min(a: Self::V, b: Self::V) -> Self::V;
+    unsafe fn max(a: Self::V, b: Self::V) -> Self::V;
+    unsafe fn xor(a: Self::V, b: Self::V) -> Self::V;
+    unsafe fn abs(a: Self::V) -> Self::V;
+    /// `m`'s magnitude with `s`'s sign.
+    unsafe fn copysign(m: Self::V, s: Self::V) -> Self::V;
+    unsafe fn le(a: Self::V, b: Self::V) -> u32;
+    unsafe fn lt(a: Self::V, b: Self::V) -> u32;
+    unsafe fn gt(a: Self::V, b: Self::V) -> u32;
+    unsafe fn ge(a: Self::V, b: Self::V) -> u32;
+    /// `yes` in the lanes of `mask`, `no` elsewhere.
+    unsafe fn select(mask: u32, no: Self::V, yes: Self::V) -> Self::V;
+    /// The first `N` floats at `p`.
+    unsafe fn load(p: &[f32; MAX_LANES]) -> Self::V;
+    unsafe fn store(p: &mut [f32; MAX_LANES], v: Self::V);
+    /// The smallest and the largest of the lanes in `mask` (which is not
+    /// empty).
+    unsafe fn min_of(v: Self::V, mask: u32) -> f32;
+    unsafe fn max_of(v: Self::V, mask: u32) -> f32;
+    /// The eight floats of each of up to `N` rays (`Ray` is eight floats,
+    /// `repr(C)`), one vector per field; lanes past the rays repeat the
+    /// last.
+    unsafe fn fields(rays: &[Ray]) -> [Self::V; 8];
 }
 
-impl PacketRays {
-    /// The first eight of `rays` (at least one).
-    ///
-    /// # Safety
-    /// Needs AVX2 (the caller's token).
-    #[target_feature(enable = "avx2,fma,popcnt,lzcnt,bmi1,bmi2")]
-    pub unsafe fn load(rays: &[Ray]) -> PacketRays {
-        let last = rays.len().min(LANES) - 1;
-        // A `Ray` is eight floats (`repr(C)`): one row per ray, transposed
-        // into one vector per field.
-        let row = |i: usize| _mm256_loadu_ps((&rays[i.min(last)] as *const Ray).cast::<f32>());
-        let [ox, oy, oz, dx, dy, dz, t_min, t_max] = transpose([
-            row(0),
-            row(1),
-            row(2),
-            row(3),
-            row(4),
-            row(5),
-            row(6),
-            row(7),
-        ]);
-        let (origin, dir) = ([ox, oy, oz], [dx, dy, dz]);
-        let sign_bit = _mm256_set1_ps(-0.0);
-        let abs = |v| _mm256_andnot_ps(sign_bit, v);
-        let copysign =
-            |m, s| _mm256_or_ps(_mm256_andnot_ps(sign_bit, m), _mm256_and_ps(sign_bit, s));
-        let (le, lt) = (
-            |a, b| _mm256_cmp_ps::<_CMP_LE_OQ>(a, b),
-            |a, b| _mm256_cmp_ps::<_CMP_LT_OQ>(a, b),
-        );
-        // Ray::traceable_vectors, lane by lane.
-        let limit = _mm256_set1_ps(crate::geom::ray::COORDINATE_LIMIT);
-        let zero = _mm256_setzero_ps();
-        let mut inside = _mm256_and_ps(le(t_min, t_max), _mm256_cmp_ps::<_CMP_GE_OQ>(t_min, zero));
-        let mut moves = zero;
-        for a in 0..3 {
-            inside = _mm256_and_ps(
-                inside,
-                _mm256_and_ps(le(abs(origin[a]), limit), le(abs(dir[a]), limit)),
-            );
-            moves = _mm256_or_ps(moves, _mm256_cmp_ps::<_CMP_GT_OQ>(abs(dir[a]), zero));
-        }
-        let traceable = _mm256_movemask_ps(_mm256_and_ps(inside, moves)) as u32;
-        // BoxRay::new, lane by lane.
-        let tiny = _mm256_set1_ps(1e-20);
-        let one = _mm256_set1_ps(1.0);
-        let infinity = _mm256_set1_ps(f32::INFINITY);
-        let mut inv = [zero; 3];
-        let mut fast = [[zero; 3]; 3];
-        let mut negative = [0u32; 3];
-        let mut finite = _mm256_castsi256_ps(_mm256_set1_epi32(-1));
-        for a in 0..3 {
-            let d = dir[a];
-            let safe = _mm256_blendv_ps(d, copysign(tiny, d), lt(abs(d), tiny));
-            inv[a] = _mm256_div_ps(one, safe);
-            let sign = _mm256_mul_ps(origin[a], safe);
-            let near_k = _mm256_add_ps(one, copysign(_mm256_set1_ps(FAST_NEAR_MARGIN), sign));
-            let far_k = _mm256_sub_ps(
-                _mm256_set1_ps(FAST_FAR_SCALE),
-                copysign(_mm256_set1_ps(FAST_FAR_MARGIN), sign),
-            );
-            fast[0][a] = _mm256_mul_ps(_mm256_mul_ps(origin[a], near_k), inv[a]);
-            fast[1][a] = _mm256_mul_ps(inv[a], _mm256_set1_ps(FAST_FAR_SCALE));
-            fast[2][a] = _mm256_mul_ps(_mm256_mul_ps(origin[a], far_k), inv[a]);
-            finite = _mm256_and_ps(
-                finite,
-                _mm256_and_ps(lt(abs(fast[0][a]), infinity), lt(abs(fast[2][a]), infinity)),
-            );
-            negative[a] = _mm256_movemask_ps(lt(safe, zero)) as u32;
-        }
-        let lanes = (1u32 << (last + 1)) - 1;
-        PacketRays {
-            lanes: Rays8 { origin, dir, t_min },
-            inv,
-            fast,
-            t_max,
-            traceable: traceable & lanes,
-            fits: _mm256_movemask_ps(finite) as u32,
-            negative,
-        }
-    }
+/// Eight rays in AVX2 lanes.
+#[derive(Clone, Copy, Debug)]
+pub struct X8;
 
-    /// The lanes of `group` whose directions lie in the octant of its
-    /// lowest lane.
-    pub fn same_octant(&self, group: u32) -> u32 {
-        let lead = group.trailing_zeros();
-        self.negative
-            .iter()
-            .fold(group, |m, &n| m & if n >> lead & 1 != 0 { n } else { !n })
-    }
+/// Sixteen rays in AVX-512 lanes.
+#[derive(Clone, Copy, Debug)]
+pub struct X16;
 
-    /// Each lane's `t_max`.
-    pub fn t_max(&self) -> [f32; LANES] {
-        let mut a = [0.0f32; LANES];
-        // SAFETY: stores eight floats into `a`.
-        unsafe { _mm256_storeu_ps(a.as_mut_ptr(), self.t_max) };
-        a
-    }
+/// The lanes of `mask` as an AVX2 vector mask.
+#[inline(always)]
+unsafe fn lane_mask8(mask: u32) -> __m256 {
+    let bits = _mm256_setr_epi32(1, 2, 4, 8, 16, 32, 64, 128);
+    _mm256_castsi256_ps(_mm256_cmpeq_epi32(
+        _mm256_and_si256(_mm256_set1_epi32(mask as i32), bits),
+        bits,
+    ))
 }
 
-/// Eight rows of eight floats as eight columns.
-#[target_feature(enable = "avx2,fma,popcnt,lzcnt,bmi1,bmi2")]
-#[inline]
-fn transpose(r: [__m256; 8]) -> [__m256; 8] {
+/// Up to eight rays' eight floats, transposed.
+#[inline(always)]
+unsafe fn fields8(rays: &[Ray]) -> [__m256; 8] {
+    let last = rays.len().min(8) - 1;
+    let row = |i: usize| _mm256_loadu_ps((&rays[i.min(last)] as *const Ray).cast::<f32>());
+    let r = [
+        row(0),
+        row(1),
+        row(2),
+        row(3),
+        row(4),
+        row(5),
+        row(6),
+        row(7),
+    ];
     let t0 = _mm256_unpacklo_ps(r[0], r[1]);
     let t1 = _mm256_unpackhi_ps(r[0], r[1]);
     let t2 = _mm256_unpacklo_ps(r[2], r[3]);
@@ -192,13 +151,322 @@ fn transpose(r: [__m256; 8]) -> [__m256; 8] {
     ]
 }
 
+unsafe impl Width for X8 {
+    type V = __m256;
+    const N: usize = 8;
+    #[inline(always)]
+    unsafe fn splat(x: f32) -> __m256 {
+        _mm256_set1_ps(x)
+    }
+    #[inline(always)]
+    unsafe fn add(a: __m256, b: __m256) -> __m256 {
+        _mm256_add_ps(a, b)
+    }
+    #[inline(always)]
+    unsafe fn sub(a: __m256, b: __m256) -> __m256 {
+        _mm256_sub_ps(a, b)
+    }
+    #[inline(always)]
+    unsafe fn mul(a: __m256, b: __m256) -> __m256 {
+        _mm256_mul_ps(a, b)
+    }
+    #[inline(always)]
+    unsafe fn div(a: __m256, b: __m256) -> __m256 {
+        _mm256_div_ps(a, b)
+    }
+    #[inline(always)]
+    unsafe fn fmsub(a: __m256, b: __m256, c: __m256) -> __m256 {
+        _mm256_fmsub_ps(a, b, c)
+    }
+    #[inline(always)]
+    unsafe fn min(a: __m256, b: __m256) -> __m256 {
+        _mm256_min_ps(a, b)
+    }
+    #[inline(always)]
+    unsafe fn max(a: __m256, b: __m256) -> __m256 {
+        _mm256_max_ps(a, b)
+    }
+    #[inline(always)]
+    unsafe fn xor(a: __m256, b: __m256) -> __m256 {
+        _mm256_xor_ps(a, b)
+    }
+    #[inline(always)]
+    unsafe fn abs(a: __m256) -> __m256 {
+        _mm256_andnot_ps(_mm256_set1_ps(-0.0), a)
+    }
+    #[inline(always)]
+    unsafe fn copysign(m: __m256, s: __m256) -> __m256 {
+        let sign = _mm256_set1_ps(-0.0);
+        _mm256_or_ps(_mm256_andnot_ps(sign, m), _mm256_and_ps(sign, s))
+    }
+    #[inline(always)]
+    unsafe fn le(a: __m256, b: __m256) -> u32 {
+        _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(a, b)) as u32
+    }
+    #[inline(always)]
+    unsafe fn lt(a: __m256, b: __m256) -> u32 {
+        _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LT_OQ>(a, b)) as u32
+    }
+    #[inline(always)]
+    unsafe fn gt(a: __m256, b: __m256) -> u32 {
+        _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_GT_OQ>(a, b)) as u32
+    }
+    #[inline(always)]
+    unsafe fn ge(a: __m256, b: __m256) -> u32 {
+        _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_GE_OQ>(a, b)) as u32
+    }
+    #[inline(always)]
+    unsafe fn select(mask: u32, no: __m256, yes: __m256) -> __m256 {
+        _mm256_blendv_ps(no, yes, lane_mask8(mask))
+    }
+    #[inline(always)]
+    unsafe fn load(p: &[f32; MAX_LANES]) -> __m256 {
+        _mm256_loadu_ps(p.as_ptr())
+    }
+    #[inline(always)]
+    unsafe fn store(p: &mut [f32; MAX_LANES], v: __m256) {
+        _mm256_storeu_ps(p.as_mut_ptr(), v)
+    }
+    #[inline(always)]
+    unsafe fn min_of(v: __m256, mask: u32) -> f32 {
+        let m = X8::select(mask, _mm256_set1_ps(f32::INFINITY), v);
+        let m = _mm256_min_ps(m, _mm256_permute2f128_ps::<1>(m, m));
+        let m = _mm256_min_ps(m, _mm256_shuffle_ps::<0b0100_1110>(m, m));
+        _mm256_cvtss_f32(_mm256_min_ps(m, _mm256_shuffle_ps::<0b1011_0001>(m, m)))
+    }
+    #[inline(always)]
+    unsafe fn max_of(v: __m256, mask: u32) -> f32 {
+        let m = X8::select(mask, _mm256_set1_ps(f32::NEG_INFINITY), v);
+        let m = _mm256_max_ps(m, _mm256_permute2f128_ps::<1>(m, m));
+        let m = _mm256_max_ps(m, _mm256_shuffle_ps::<0b0100_1110>(m, m));
+        _mm256_cvtss_f32(_mm256_max_ps(m, _mm256_shuffle_ps::<0b1011_0001>(m, m)))
+    }
+    #[inline(always)]
+    unsafe fn fields(rays: &[Ray]) -> [__m256; 8] {
+        fields8(rays)
+    }
+}
+
+unsafe impl Width for X16 {
+    type V = __m512;
+    const N: usize = 16;
+    #[inline(always)]
+    unsafe fn splat(x: f32) -> __m512 {
+        _mm512_set1_ps(x)
+    }
+    #[inline(always)]
+    unsafe fn add(a: __m512, b: __m512) -> __m512 {
+        _mm512_add_ps(a, b)
+    }
+    #[inline(always)]
+    unsafe fn sub(a: __m512, b: __m512) -> __m512 {
+        _mm512_sub_ps(a, b)
+    }
+    #[inline(always)]
+    unsafe fn mul(a: __m512, b: __m512) -> __m512 {
+        _mm512_mul_ps(a, b)
+    }
+    #[inline(always)]
+    unsafe fn div(a: __m512, b: __m512) -> __m512 {
+        _mm512_div_ps(a, b)
+    }
+    #[inline(always)]
+    unsafe fn fmsub(a: __m512, b: __m512, c: __m512) -> __m512 {
+        _mm512_fmsub_ps(a, b, c)
+    }
+    #[inline(always)]
+    unsafe fn min(a: __m512, b: __m512) -> __m512 {
+        _mm512_min_ps(a, b)
+    }
+    #[inline(always)]
+    unsafe fn max(a: __m512, b: __m512) -> __m512 {
+        _mm512_max_ps(a, b)
+    }
+    #[inline(always)]
+    unsafe fn xor(a: __m512, b: __m512) -> __m512 {
+        _mm512_castsi512_ps(_mm512_xor_si512(
+            _mm512_castps_si512(a),
+            _mm512_castps_si512(b),
+        ))
+    }
+    #[inline(always)]
+    unsafe fn abs(a: __m512) -> __m512 {
+        let sign = _mm512_set1_epi32(i32::MIN);
+        _mm512_castsi512_ps(_mm512_andnot_si512(sign, _mm512_castps_si512(a)))
+    }
+    #[inline(always)]
+    unsafe fn copysign(m: __m512, s: __m512) -> __m512 {
+        let sign = _mm512_set1_epi32(i32::MIN);
+        _mm512_castsi512_ps(_mm512_or_si512(
+            _mm512_andnot_si512(sign, _mm512_castps_si512(m)),
+            _mm512_and_si512(sign, _mm512_castps_si512(s)),
+        ))
+    }
+    #[inline(always)]
+    unsafe fn le(a: __m512, b: __m512) -> u32 {
+        u32::from(_mm512_cmp_ps_mask::<_CMP_LE_OQ>(a, b))
+    }
+    #[inline(always)]
+    unsafe fn lt(a: __m512, b: __m512) -> u32 {
+        u32::from(_mm512_cmp_ps_mask::<_CMP_LT_OQ>(a, b))
+    }
+    #[inline(always)]
+    unsafe fn gt(a: __m512, b: __m512) -> u32 {
+        u32::from(_mm512_cmp_ps_mask::<_CMP_GT_OQ>(a, b))
+    }
+    #[inline(always)]
+    unsafe fn ge(a: __m512, b: __m512) -> u32 {
+        u32::from(_mm512_cmp_ps_mask::<_CMP_GE_OQ>(a, b))
+    }
+    #[inline(always)]
+    unsafe fn select(mask: u32, no: __m512, yes: __m512) -> __m512 {
+        _mm512_mask_blend_ps(mask as u16, no, yes)
+    }
+    #[inline(always)]
+    unsafe fn load(p: &[f32; MAX_LANES]) -> __m512 {
+        _mm512_loadu_ps(p.as_ptr())
+    }
+    #[inline(always)]
+    unsafe fn store(p: &mut [f32; MAX_LANES], v: __m512) {
+        _mm512_storeu_ps(p.as_mut_ptr(), v)
+    }
+    #[inline(always)]
+    unsafe fn min_of(v: __m512, mask: u32) -> f32 {
+        _mm512_reduce_min_ps(X16::select(mask, _mm512_set1_ps(f32::INFINITY), v))
+    }
+    #[inline(always)]
+    unsafe fn max_of(v: __m512, mask: u32) -> f32 {
+        _mm512_reduce_max_ps(X16::select(mask, _mm512_set1_ps(f32::NEG_INFINITY), v))
+    }
+    #[inline(always)]
+    unsafe fn fields(rays: &[Ray]) -> [__m512; 8] {
+        let split = rays.len().min(8);
+        let lo = fields8(&rays[..split]);
+        // The second eight repeat the last ray when there are no more.
+        let hi = fields8(if rays.len() > 8 {
+            &rays[8..rays.len().min(16)]
+        } else {
+            &rays[split - 1..split]
+        });
+        let mut out = [_mm512_setzero_ps(); 8];
+        for f in 0..8 {
+            out[f] = _mm512_castpd_ps(_mm512_insertf64x4::<1>(
+                _mm512_castpd256_pd512(_mm256_castps_pd(lo[f])),
+                _mm256_castps_pd(hi[f]),
+            ));
+        }
+        out
+    }
+}
+
+/// A packet's rays as the leaf test takes them: origins, directions and
+/// `t_min`, one lane per ray.
+pub struct Lanes<W: Width> {
+    pub origin: [W::V; 3],
+    pub dir: [W::V; 3],
+    pub t_min: W::V,
+}
+
+/// Up to `W::N` rays as lanes, with what the kernels need, computed all
+/// lanes at a time by the operations [`BoxRay::new`] and
+/// [`Ray::traceable_vectors`] use per ray (so each lane holds the bits the
+/// single-ray kernel computes). Lanes past the rays given repeat the last.
+pub struct PacketRays<W: Width> {
+    pub lanes: Lanes<W>,
+    inv: [W::V; 3],
+    /// The fast test's constants per axis: near `c`, far `r`, far `c`.
+    fast: [[W::V; 3]; 3],
+    t_max: W::V,
+    /// Lanes whose ray is traceable.
+    pub traceable: u32,
+    /// Lanes whose fast-test constants are finite.
+    fits: u32,
+    /// Per axis, the lanes whose direction is negative.
+    negative: [u32; 3],
+}
+
+impl<W: Width> PacketRays<W> {
+    /// The first `W::N` of `rays` (at least one).
+    ///
+    /// # Safety
+    /// Only from `W`'s `#[target_feature]` code ([`Width`]).
+    #[inline(always)]
+    pub unsafe fn load(rays: &[Ray]) -> PacketRays<W> {
+        let [ox, oy, oz, dx, dy, dz, t_min, t_max] = W::fields(rays);
+        let (origin, dir) = ([ox, oy, oz], [dx, dy, dz]);
+        // Ray::traceable_vectors, lane by lane.
+        let limit = W::splat(crate::geom::ray::COORDINATE_LIMIT);
+        let zero = W::splat(0.0);
+        let mut traceable = W::le(t_min, t_max) & W::ge(t_min, zero);
+        let mut moves = 0;
+        for a in 0..3 {
+            traceable &= W::le(W::abs(origin[a]), limit) & W::le(W::abs(dir[a]), limit);
+            moves |= W::gt(W::abs(dir[a]), zero);
+        }
+        // BoxRay::new, lane by lane.
+        let tiny = W::splat(1e-20);
+        let one = W::splat(1.0);
+        let infinity = W::splat(f32::INFINITY);
+        let mut inv = [zero; 3];
+        let mut fast = [[zero; 3]; 3];
+        let mut negative = [0u32; 3];
+        let mut fits = u32::MAX;
+        for a in 0..3 {
+            let d = dir[a];
+            let safe = W::select(W::lt(W::abs(d), tiny), d, W::copysign(tiny, d));
+            inv[a] = W::div(one, safe);
+            let sign = W::mul(origin[a], safe);
+            let near_k = W::add(one, W::copysign(W::splat(FAST_NEAR_MARGIN), sign));
+            let far_k = W::sub(
+                W::splat(FAST_FAR_SCALE),
+                W::copysign(W::splat(FAST_FAR_MARGIN), sign),
+            );
+            fast[0][a] = W::mul(W::mul(origin[a], near_k), inv[a]);
+            fast[1][a] = W::mul(inv[a], W::splat(FAST_FAR_SCALE));
+            fast[2][a] = W::mul(W::mul(origin[a], far_k), inv[a]);
+            fits &= W::lt(W::abs(fast[0][a]), infinity) & W::lt(W::abs(fast[2][a]), infinity);
+            negative[a] = W::lt(safe, zero);
+        }
+        let lanes = (1u32 << rays.len().min(W::N)) - 1;
+        PacketRays {
+            lanes: Lanes { origin, dir, t_min },
+            inv,
+            fast,
+            t_max,
+            traceable: traceable & moves & lanes,
+            fits,
+            negative,
+        }
+    }
+
+    /// The lanes of `group` whose directions lie in the octant of its
+    /// lowest lane.
+    pub fn same_octant(&self, group: u32) -> u32 {
+        let lead = group.trailing_zeros();
+        self.negative
+            .iter()
+            .fold(group, |m, &n| m & if n >> lead & 1 != 0 { n } else { !n })
+    }
+
+    /// Each lane's `t_max`.
+    ///
+    /// # Safety
+    /// As [`PacketRays::load`].
+    #[inline(always)]
+    pub unsafe fn t_max(&self) -> [f32; MAX_LANES] {
+        let mut a = [0.0f32; MAX_LANES];
+        W::store(&mut a, self.t_max);
+        a
+    }
+}
+
 /// A packet: the lanes in `mask` of `rays`, which share one octant.
-pub struct Packet<'r> {
-    pub rays: &'r PacketRays,
+pub struct Packet<'r, W: Width> {
+    pub rays: &'r PacketRays<W>,
     pub mask: u32,
 }
 
-impl Packet<'_> {
+impl<W: Width> Packet<'_, W> {
     /// Whether every ray of the packet may take the fast box test.
     pub fn fast_test_fits(&self) -> bool {
         self.rays.fits & self.mask == self.mask
@@ -220,9 +488,10 @@ impl Packet<'_> {
     }
 }
 
-/// The interval test's constants: per axis the range of the reciprocals
-/// and the end of each offset's range that gives the lowest near and the
-/// highest far distance (see the module notes).
+/// The interval test's constants, broadcast over a node's eight children:
+/// per axis the range of the reciprocals and the end of each offset's
+/// range that gives the lowest near and the highest far distance (see the
+/// module notes).
 struct Interval {
     near_r: [(__m256, __m256); 3],
     near_c: [__m256; 3],
@@ -231,31 +500,11 @@ struct Interval {
     t_min: __m256,
 }
 
-/// The smallest of the lanes in `on` (a vector mask), in every lane.
-#[target_feature(enable = "avx2,fma,popcnt,lzcnt,bmi1,bmi2")]
-#[inline]
-fn all_min(v: __m256, on: __m256) -> __m256 {
-    let m = _mm256_blendv_ps(_mm256_set1_ps(f32::INFINITY), v, on);
-    let m = _mm256_min_ps(m, _mm256_permute2f128_ps::<1>(m, m));
-    let m = _mm256_min_ps(m, _mm256_shuffle_ps::<0b0100_1110>(m, m));
-    _mm256_min_ps(m, _mm256_shuffle_ps::<0b1011_0001>(m, m))
-}
-
-/// The largest of the lanes in `on`, in every lane.
-#[target_feature(enable = "avx2,fma,popcnt,lzcnt,bmi1,bmi2")]
-#[inline]
-fn all_max(v: __m256, on: __m256) -> __m256 {
-    let m = _mm256_blendv_ps(_mm256_set1_ps(f32::NEG_INFINITY), v, on);
-    let m = _mm256_max_ps(m, _mm256_permute2f128_ps::<1>(m, m));
-    let m = _mm256_max_ps(m, _mm256_shuffle_ps::<0b0100_1110>(m, m));
-    _mm256_max_ps(m, _mm256_shuffle_ps::<0b1011_0001>(m, m))
-}
-
 /// The lane test's constants of each axis: near `r`, near `c`, far `r`,
 /// far `c` (robust form: reciprocal and origin; fast form: the fused
 /// constants).
 #[inline(always)]
-fn constants<const ROBUST: bool>(r: &PacketRays) -> [&[__m256; 3]; 4] {
+fn constants<W: Width, const ROBUST: bool>(r: &PacketRays<W>) -> [&[W::V; 3]; 4] {
     if ROBUST {
         [&r.inv, &r.lanes.origin, &r.inv, &r.lanes.origin]
     } else {
@@ -263,46 +512,52 @@ fn constants<const ROBUST: bool>(r: &PacketRays) -> [&[__m256; 3]; 4] {
     }
 }
 
-/// The interval test's constants of packet `p`, written into `ia`.
-#[target_feature(enable = "avx2,fma,popcnt,lzcnt,bmi1,bmi2")]
-#[inline]
-fn interval<const ROBUST: bool>(p: &Packet, ia: &mut Interval) {
+/// The interval test's constants of packet `p`.
+#[inline(always)]
+unsafe fn interval<W: Width, const ROBUST: bool>(p: &Packet<W>) -> Interval {
     let r = p.rays;
-    let [_, near_c, _, far_c] = constants::<ROBUST>(r);
-    let on = lane_mask(p.mask);
-    let lead = p.mask.trailing_zeros();
-    ia.t_min = all_min(r.lanes.t_min, on);
+    let [_, near_c, _, far_c] = constants::<W, ROBUST>(r);
+    let (mask, lead) = (p.mask, p.mask.trailing_zeros());
+    let splat = |x: f32| _mm256_set1_ps(x);
+    let zero = splat(0.0);
+    let mut ia = Interval {
+        near_r: [(zero, zero); 3],
+        near_c: [zero; 3],
+        far_r: [(zero, zero); 3],
+        far_c: [zero; 3],
+        t_min: splat(W::min_of(r.lanes.t_min, mask)),
+    };
     for axis in 0..3 {
-        let (r_lo, r_hi) = (all_min(r.inv[axis], on), all_max(r.inv[axis], on));
-        ia.near_r[axis] = (r_lo, r_hi);
+        let (r_lo, r_hi) = (W::min_of(r.inv[axis], mask), W::max_of(r.inv[axis], mask));
+        ia.near_r[axis] = (splat(r_lo), splat(r_hi));
         // The fast form's far reciprocal is `r (1 + 2^-20)` lane by lane;
         // multiplying by a positive constant keeps the order, so its range
         // is the reciprocals' range times the same constant.
         ia.far_r[axis] = if ROBUST {
-            (r_lo, r_hi)
+            (splat(r_lo), splat(r_hi))
         } else {
-            let scale = _mm256_set1_ps(FAST_FAR_SCALE);
-            (_mm256_mul_ps(r_lo, scale), _mm256_mul_ps(r_hi, scale))
+            (splat(r_lo * FAST_FAR_SCALE), splat(r_hi * FAST_FAR_SCALE))
         };
         // Fast form `plane * r - c`: the largest `c` lowers the near
         // distance, the smallest raises the far one. Robust form
         // `(plane - o) * r`: which end of `o` does depends on the sign of
         // `r`, the packet's octant.
         let negative_axis = r.negative[axis] >> lead & 1 != 0;
-        if ROBUST && negative_axis {
-            ia.near_c[axis] = all_min(near_c[axis], on);
-            ia.far_c[axis] = all_max(far_c[axis], on);
+        let (nc, fc) = if ROBUST && negative_axis {
+            (W::min_of(near_c[axis], mask), W::max_of(far_c[axis], mask))
         } else {
-            ia.near_c[axis] = all_max(near_c[axis], on);
-            ia.far_c[axis] = all_min(far_c[axis], on);
-        }
+            (W::max_of(near_c[axis], mask), W::min_of(far_c[axis], mask))
+        };
+        ia.near_c[axis] = splat(nc);
+        ia.far_c[axis] = splat(fc);
     }
+    ia
 }
 
-/// One plane's distance, robust `(plane - c) * r` or fast `plane * r - c`.
-#[target_feature(enable = "avx2,fma,popcnt,lzcnt,bmi1,bmi2")]
-#[inline]
-fn distance<const ROBUST: bool>(plane: __m256, r: __m256, c: __m256) -> __m256 {
+/// One plane's distance over the node's children, robust
+/// `(plane - c) * r` or fast `plane * r - c`.
+#[inline(always)]
+unsafe fn distance<const ROBUST: bool>(plane: __m256, r: __m256, c: __m256) -> __m256 {
     if ROBUST {
         _mm256_mul_ps(_mm256_sub_ps(plane, c), r)
     } else {
@@ -313,8 +568,7 @@ fn distance<const ROBUST: bool>(plane: __m256, r: __m256, c: __m256) -> __m256 {
 /// The interval test of the node's eight children against the packet:
 /// lower bounds of the entry distances and the children some ray may
 /// enter within `t_max`.
-#[target_feature(enable = "avx2,fma,popcnt,lzcnt,bmi1,bmi2")]
-#[inline]
+#[inline(always)]
 unsafe fn interval_slab<const ROBUST: bool>(
     node: &Node8,
     ia: &Interval,
@@ -355,61 +609,42 @@ unsafe fn interval_slab<const ROBUST: bool>(
 
 /// The rays (lanes) that enter child `c` of `node` within their own
 /// `t_max`: the single-ray slab test, lane by lane.
-#[target_feature(enable = "avx2,fma,popcnt,lzcnt,bmi1,bmi2")]
-#[inline]
-fn lane_slab<const ROBUST: bool>(
+#[inline(always)]
+unsafe fn lane_slab<W: Width, const ROBUST: bool>(
     node: &Node8,
     c: usize,
-    r: &PacketRays,
+    r: &PacketRays<W>,
     rows: &[(usize, usize); 3],
-    t_max: __m256,
+    t_max: W::V,
 ) -> u32 {
-    let [near_r, near_c, far_r, far_c] = constants::<ROBUST>(r);
-    let plane = |row: usize| _mm256_set1_ps(node.planes[row][c]);
-    let near_t = |a: usize| distance::<ROBUST>(plane(rows[a].0), near_r[a], near_c[a]);
-    let far_t = |a: usize| distance::<ROBUST>(plane(rows[a].1), far_r[a], far_c[a]);
-    let near = _mm256_max_ps(
-        _mm256_max_ps(near_t(0), near_t(1)),
-        _mm256_max_ps(near_t(2), r.lanes.t_min),
+    let [near_r, near_c, far_r, far_c] = constants::<W, ROBUST>(r);
+    let plane = |row: usize| W::splat(node.planes[row][c]);
+    let distance = |p: W::V, r: W::V, c: W::V| {
+        if ROBUST {
+            W::mul(W::sub(p, c), r)
+        } else {
+            W::fmsub(p, r, c)
+        }
+    };
+    let near_t = |a: usize| distance(plane(rows[a].0), near_r[a], near_c[a]);
+    let far_t = |a: usize| distance(plane(rows[a].1), far_r[a], far_c[a]);
+    let near = W::max(
+        W::max(near_t(0), near_t(1)),
+        W::max(near_t(2), r.lanes.t_min),
     );
-    let far = _mm256_min_ps(_mm256_min_ps(far_t(0), far_t(1)), far_t(2));
+    let far = W::min(W::min(far_t(0), far_t(1)), far_t(2));
     let far = if ROBUST {
-        _mm256_mul_ps(far, _mm256_set1_ps(BOX_FAR_SCALE))
+        W::mul(far, W::splat(BOX_FAR_SCALE))
     } else {
         far
     };
-    let far = _mm256_min_ps(far, t_max);
-    _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(near, far)) as u32
-}
-
-/// The largest of the eight lanes.
-#[target_feature(enable = "avx2,fma,popcnt,lzcnt,bmi1,bmi2")]
-#[inline]
-fn horizontal_max(v: __m256) -> f32 {
-    let m = _mm_max_ps(_mm256_castps256_ps128(v), _mm256_extractf128_ps::<1>(v));
-    let m = _mm_max_ps(m, _mm_movehl_ps(m, m));
-    let m = _mm_max_ss(m, _mm_shuffle_ps::<1>(m, m));
-    _mm_cvtss_f32(m)
-}
-
-/// The lanes of `mask` as a vector mask.
-#[target_feature(enable = "avx2,fma,popcnt,lzcnt,bmi1,bmi2")]
-#[inline]
-pub fn lane_mask(mask: u32) -> __m256 {
-    let bits = _mm256_setr_epi32(1, 2, 4, 8, 16, 32, 64, 128);
-    _mm256_castsi256_ps(_mm256_cmpeq_epi32(
-        _mm256_and_si256(_mm256_set1_epi32(mask as i32), bits),
-        bits,
-    ))
+    W::le(near, W::min(far, t_max))
 }
 
 /// Lanes outside `mask` set to `-inf`, so that no box test passes there.
-#[target_feature(enable = "avx2,fma,popcnt,lzcnt,bmi1,bmi2")]
-#[inline]
-fn masked_t_max(t_max: &[f32; LANES], mask: u32) -> __m256 {
-    // SAFETY: reads the eight floats of `t_max`.
-    let t = unsafe { _mm256_loadu_ps(t_max.as_ptr()) };
-    _mm256_blendv_ps(_mm256_set1_ps(f32::NEG_INFINITY), t, lane_mask(mask))
+#[inline(always)]
+unsafe fn masked_t_max<W: Width>(t_max: &[f32; MAX_LANES], mask: u32) -> W::V {
+    W::select(mask, W::splat(f32::NEG_INFINITY), W::load(t_max))
 }
 
 /// Iterates the set bits of `mask`, lowest first.
@@ -431,27 +666,20 @@ fn bits(mut mask: u32) -> impl Iterator<Item = usize> {
 /// hit where `leaves` keeps lane `i`'s).
 ///
 /// # Safety
-/// As [`avx2::closest`]: the token's CPU features and a non-empty `tree`.
-#[target_feature(enable = "avx2,fma,popcnt,lzcnt,bmi1,bmi2")]
+/// Only from `W`'s `#[target_feature]` code ([`Width`]), which also has
+/// AVX2 and FMA; `tree` is not empty.
+#[inline(always)]
 #[allow(clippy::too_many_arguments)]
-pub unsafe fn closest<const ROBUST: bool, P: PacketLeaves>(
+pub unsafe fn closest<W: Width, const ROBUST: bool, P: PacketLeaves<W>>(
     tree: &Tree,
-    packet: &Packet,
-    t_max: &mut [f32; LANES],
+    packet: &Packet<W>,
+    t_max: &mut [f32; MAX_LANES],
     leaves: &mut P,
     single: &mut impl FnMut(&mut P, usize, ChildRef, &mut f32, &mut Work) -> bool,
     work: &mut Work,
     single_below: u32,
 ) -> u32 {
-    let zero = _mm256_setzero_ps();
-    let mut ia = Interval {
-        near_r: [(zero, zero); 3],
-        near_c: [zero; 3],
-        far_r: [(zero, zero); 3],
-        far_c: [zero; 3],
-        t_min: zero,
-    };
-    interval::<ROBUST>(packet, &mut ia);
+    let ia = interval::<W, ROBUST>(packet);
     let lanes = packet.rays;
     let rows = packet.rows();
     let shift = _mm_cvtsi32_si128(3 * packet.octant() as i32);
@@ -464,8 +692,8 @@ pub unsafe fn closest<const ROBUST: bool, P: PacketLeaves>(
         dists.as_mut_ptr().cast::<f32>(),
     );
     let mut top = 0usize;
-    let mut t_lanes = masked_t_max(t_max, packet.mask);
-    let mut far = horizontal_max(t_lanes);
+    let mut t_lanes = masked_t_max::<W>(t_max, packet.mask);
+    let mut far = W::max_of(t_lanes, packet.mask);
     let mut current: ChildRef = 0;
     let mut mask = packet.mask;
     let mut hits = 0u32;
@@ -496,7 +724,7 @@ pub unsafe fn closest<const ROBUST: bool, P: PacketLeaves>(
                 _mm256_storeu_ps(near_of.as_mut_ptr(), near);
                 for place in bits(sorted) {
                     let c = places[place] as usize;
-                    let entering = lane_slab::<ROBUST>(node, c, lanes, &rows, t_lanes) & mask;
+                    let entering = lane_slab::<W, ROBUST>(node, c, lanes, &rows, t_lanes) & mask;
                     if entering == 0 {
                         continue;
                     }
@@ -507,8 +735,8 @@ pub unsafe fn closest<const ROBUST: bool, P: PacketLeaves>(
                                 hits |= 1 << i;
                             }
                         }
-                        t_lanes = masked_t_max(t_max, packet.mask);
-                        far = horizontal_max(t_lanes);
+                        t_lanes = masked_t_max::<W>(t_max, packet.mask);
+                        far = W::max_of(t_lanes, packet.mask);
                         continue;
                     }
                     // SAFETY: each level leaves at most eight entries, the
@@ -523,8 +751,8 @@ pub unsafe fn closest<const ROBUST: bool, P: PacketLeaves>(
             let (first, count) = (leaf_first(current), leaf_count(current));
             work.items += u64::from(count * mask.count_ones());
             hits |= leaves.nearest(first, count, mask, t_max);
-            t_lanes = masked_t_max(t_max, packet.mask);
-            far = horizontal_max(t_lanes);
+            t_lanes = masked_t_max::<W>(t_max, packet.mask);
+            far = W::max_of(t_lanes, packet.mask);
         }
         loop {
             if top == 0 {
@@ -548,26 +776,18 @@ pub unsafe fn closest<const ROBUST: bool, P: PacketLeaves>(
 ///
 /// # Safety
 /// As [`closest`].
-#[target_feature(enable = "avx2,fma,popcnt,lzcnt,bmi1,bmi2")]
+#[inline(always)]
 #[allow(clippy::too_many_arguments)]
-pub unsafe fn any<const ROBUST: bool, P: PacketLeaves>(
+pub unsafe fn any<W: Width, const ROBUST: bool, P: PacketLeaves<W>>(
     tree: &Tree,
-    packet: &Packet,
-    t_max: &[f32; LANES],
+    packet: &Packet<W>,
+    t_max: &[f32; MAX_LANES],
     leaves: &mut P,
     single: &mut impl FnMut(&mut P, usize, ChildRef, f32, &mut Work) -> bool,
     work: &mut Work,
     single_below: u32,
 ) -> u32 {
-    let zero = _mm256_setzero_ps();
-    let mut ia = Interval {
-        near_r: [(zero, zero); 3],
-        near_c: [zero; 3],
-        far_r: [(zero, zero); 3],
-        far_c: [zero; 3],
-        t_min: zero,
-    };
-    interval::<ROBUST>(packet, &mut ia);
+    let ia = interval::<W, ROBUST>(packet);
     let lanes = packet.rays;
     let rows = packet.rows();
     let mut refs = [MaybeUninit::<ChildRef>::uninit(); STACK];
@@ -578,8 +798,8 @@ pub unsafe fn any<const ROBUST: bool, P: PacketLeaves>(
     );
     let mut top = 0usize;
     let mut live = packet.mask;
-    let mut t_lanes = masked_t_max(t_max, live);
-    let mut far = horizontal_max(t_lanes);
+    let mut t_lanes = masked_t_max::<W>(t_max, live);
+    let mut far = W::max_of(t_lanes, live);
     let mut current: ChildRef = 0;
     let mut mask = live;
     loop {
@@ -589,7 +809,7 @@ pub unsafe fn any<const ROBUST: bool, P: PacketLeaves>(
             work.nodes += 1;
             let (_, passed) = interval_slab::<ROBUST>(node, &ia, &rows, _mm256_set1_ps(far));
             for c in bits(passed) {
-                let entering = lane_slab::<ROBUST>(node, c, lanes, &rows, t_lanes) & mask;
+                let entering = lane_slab::<W, ROBUST>(node, c, lanes, &rows, t_lanes) & mask;
                 if entering == 0 {
                     continue;
                 }
@@ -604,8 +824,8 @@ pub unsafe fn any<const ROBUST: bool, P: PacketLeaves>(
                         return packet.mask;
                     }
                     mask &= live;
-                    t_lanes = masked_t_max(t_max, live);
-                    far = horizontal_max(t_lanes);
+                    t_lanes = masked_t_max::<W>(t_max, live);
+                    far = W::max_of(t_lanes, live);
                     continue;
                 }
                 // SAFETY: as in `closest`.
@@ -620,8 +840,8 @@ pub unsafe fn any<const ROBUST: bool, P: PacketLeaves>(
             if live == 0 {
                 return packet.mask;
             }
-            t_lanes = masked_t_max(t_max, live);
-            far = horizontal_max(t_lanes);
+            t_lanes = masked_t_max::<W>(t_max, live);
+            far = W::max_of(t_lanes, live);
         }
         loop {
             if top == 0 {
