@@ -5,7 +5,9 @@
 //! rounds until every ratio to native is known within the bound
 //! ([`Settle`]). `hybrid bench` and the report's trace tables both use it.
 
-use super::measure::{time_settled, trace_all, trace_all_batched, Measured, Query, Settle};
+use super::measure::{
+    time_settled, trace_all, trace_all_batched, Measured, Query, Settle, Settled,
+};
 use super::table::{Cell, Flag, Table};
 use crate::accel::{Accel, BatchMode};
 use crate::geom::ray::FlatRay;
@@ -84,10 +86,22 @@ pub fn compare<A: Accel>(
         }
         std::hint::black_box(n);
     });
-    let rate = |m: &Measured| Measured::per_second_millions(flat.len(), m);
+    row(kind, flat.len(), hits, runs, &timed)
+}
+
+/// A replayed set's row from its runs `(name, backend, plain C)` and
+/// their timings.
+fn row(
+    kind: &str,
+    rays: usize,
+    hits: usize,
+    runs: Vec<(String, usize, bool)>,
+    timed: &Settled,
+) -> PairedRow {
+    let rate = |m: &Measured| Measured::per_second_millions(rays, m);
     PairedRow {
         kind: kind.to_string(),
-        rays: flat.len(),
+        rays,
         hits,
         runs: runs
             .into_iter()
@@ -226,26 +240,11 @@ pub fn compare_batched<A: Accel>(
         }
         std::hint::black_box(n);
     });
-    let rate = |m: &Measured| Measured::per_second_millions(flat.len(), m);
-    PairedRow {
-        kind: kind.to_string(),
-        rays: flat.len(),
-        hits,
-        runs: runs
-            .into_iter()
-            .enumerate()
-            .map(|(i, (name, backend, mode))| Run {
-                name,
-                backend,
-                plain_c: matches!(mode, Mode::C(_)),
-                cpu: rate(&timed.cpu[i]),
-                wall: rate(&timed.wall[i]),
-            })
-            .collect(),
-        rounds: timed.rounds,
-        settled: timed.settled,
-        widest: timed.widest,
-    }
+    let runs = runs
+        .into_iter()
+        .map(|(name, b, mode)| (name, b, matches!(mode, Mode::C(_))))
+        .collect();
+    row(kind, flat.len(), hits, runs, &timed)
 }
 
 /// The batched replay as a table: Mrays/s by CPU time per run, then native
