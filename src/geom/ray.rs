@@ -6,8 +6,8 @@
 use glam::{Vec3, Vec3A};
 
 /// A ray `origin + t * dir` for `t` in `[t_min, t_max]`. Laid out as a
-/// [`FlatRay`] (eight floats), which packet traversal reads eight rays at
-/// a time.
+/// [`FlatRay`] (eight floats), which packet traversal loads as rows and
+/// transposes into lanes.
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[repr(C)]
 pub struct Ray {

@@ -5,6 +5,7 @@
 //! other code than its single-ray ones, with the same primitive and `t`
 //! within 1e-5 relative (as `embree_backend.rs` checks its batch calls).
 
+use hybrid::accel::native::NativeOptions;
 use hybrid::accel::{Accel, BackendConfig, TraceCounters};
 use hybrid::geom::{Hit, Ray};
 use hybrid::parity::rays::{
@@ -150,6 +151,11 @@ fn batch_queries_answer_as_single_rays_on_every_backend() {
         for config in [
             BackendConfig::NATIVE,
             BackendConfig::NATIVE_PACKETS8,
+            // No SIMD: the batch queries loop over single rays.
+            BackendConfig::Native(NativeOptions {
+                simd: false,
+                ..NativeOptions::DEFAULT
+            }),
             BackendConfig::NATIVE_WATERTIGHT,
             BackendConfig::EMBREE,
             BackendConfig::EMBREE4,

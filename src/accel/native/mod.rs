@@ -96,9 +96,10 @@ impl Default for NativeOptions {
     }
 }
 
-/// Rays of one octant that a group of eight needs at least to be traced
-/// as a packet; fewer go one at a time. Three to six measured alike on
-/// CBbunny's camera and light rays, within the machine's noise.
+/// Rays of one octant that a group (of sixteen or eight) needs at least to
+/// be traced as a packet; fewer go one at a time. Three to six measured
+/// alike on CBbunny's camera and light rays with eight-ray packets, within
+/// the machine's noise (not yet measured at sixteen).
 pub const MIN_PACKET: u32 = 4;
 
 /// A child that fewer of a packet's rays enter is handed to the single-ray
@@ -544,17 +545,6 @@ impl PacketKernels {
         }
         PacketKernels::None
     }
-
-    /// Rays per group of a batch.
-    fn lanes(self) -> usize {
-        match self {
-            #[cfg(target_arch = "x86_64")]
-            PacketKernels::Avx512(_) => 16,
-            #[cfg(target_arch = "x86_64")]
-            PacketKernels::Avx2(_) => 8,
-            PacketKernels::None => 8,
-        }
-    }
 }
 
 /// One batch query's per-ray work, for the generic group code: the
@@ -779,19 +769,24 @@ impl NativeBvh {
         if self.triangles.is_empty() {
             return None;
         }
-        let kernels = self.packets;
-        let lanes = kernels.lanes();
+        type Group<Q> = unsafe fn(
+            &NativeBvh,
+            &[TriangleBlock4],
+            &[Ray],
+            &mut [<Q as Query>::Answer],
+            &mut TraceCounters,
+        );
+        let (group, lanes): (Group<Q>, usize) = match self.packets {
+            PacketKernels::Avx512(_) => (Self::group16::<Q>, 16),
+            PacketKernels::Avx2(_) => (Self::group8::<Q>, 8),
+            PacketKernels::None => return None,
+        };
         for (rays, out) in rays.chunks(lanes).zip(out.chunks_mut(lanes)) {
             counters.rays += rays.len() as u64;
-            // SAFETY: each token proves its CPU features; the triangle
-            // tree is not empty (checked above).
-            unsafe {
-                match kernels {
-                    PacketKernels::Avx512(_) => self.group16::<Q>(blocks, rays, out, counters),
-                    PacketKernels::Avx2(_) => self.group8::<Q>(blocks, rays, out, counters),
-                    PacketKernels::None => return None,
-                }
-            }
+            // SAFETY: the kernels were chosen by the token that proves
+            // their CPU features; the triangle tree is not empty (checked
+            // above).
+            unsafe { group(self, blocks, rays, out, counters) };
         }
         Some(())
     }
