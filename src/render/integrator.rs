@@ -204,14 +204,9 @@ impl<'a, A: Accel> Integrator<'a, A> {
         self.accel
     }
 
-    /// Radiance (or normal colour) along a camera ray.
-    pub fn radiance(&self, ray: &Ray, rng: &mut Rng, counters: &mut TraceCounters) -> Vec3 {
-        let first = self.accel.closest_hit(ray, counters);
-        self.radiance_from(ray, first, rng, counters)
-    }
-
-    /// [`Self::radiance`] of a camera ray whose closest hit `first` was
-    /// traced already (in a packet with its neighbours').
+    /// Radiance (or normal colour) along a camera ray whose closest hit
+    /// `first` was traced already (by the caller, alone or in a packet
+    /// with its neighbours').
     pub fn radiance_from(
         &self,
         ray: &Ray,

@@ -218,20 +218,16 @@ fn render_rows<A: Accel>(
             let y = cell.y + row_index as u32;
             let mut counters = TraceCounters::default();
             let columns = cell.x..cell.x + cell.width;
-            if settings.packets {
-                let pixels =
-                    row_in_packets(&integrator, &camera, settings, columns, y, &mut counters);
-                for (i, (sum, n)) in pixels.into_iter().enumerate() {
-                    sums[i] = sum;
-                    counts[i] = n;
-                }
-            } else {
-                for (i, x) in columns.enumerate() {
-                    let (sum, n) = pixel(&integrator, &camera, settings, x, y, &mut counters);
-                    sums[i] = sum;
-                    counts[i] = n;
-                }
-            }
+            render_row(
+                &integrator,
+                &camera,
+                settings,
+                columns,
+                y,
+                sums,
+                counts,
+                &mut counters,
+            );
             for ((value, sum), &n) in row.iter_mut().zip(sums.iter()).zip(counts.iter()) {
                 // The one division both a single render and a merge do.
                 *value = if n == 0 {
@@ -288,25 +284,31 @@ fn converged(a: &Adaptive, n: u32, s1: f64, s2: f64) -> bool {
     interval <= a.tolerance as f64 * mean
 }
 
-/// [`pixel`] for every pixel of row `y` in `columns` at once: each sample
-/// index's camera rays of the row's unfinished pixels go to the backend's
-/// batch query together (packets of neighbouring rays), and each path
-/// goes on from its ray's hit. Every pixel takes the same samples, in the
-/// same order, from the same random streams as [`pixel`], so the sums are
-/// the same bits.
-fn row_in_packets<A: Accel>(
+/// Row `y`'s pixels in `columns`: the sums of their samples (all of them,
+/// or the settings' sample range) in double precision into `sums`, and the
+/// number each took into `counts`. Sample index by sample index, the
+/// camera rays of the row's unfinished pixels are traced together through
+/// the backend's batch query (packets of neighbouring rays; with
+/// `settings.packets` off, one at a time), and each path goes on from its
+/// ray's hit. Each pixel takes its samples in order from its own random
+/// streams, so the sums do not depend on the batching.
+#[allow(clippy::too_many_arguments)]
+fn render_row<A: Accel>(
     integrator: &Integrator<A>,
     camera: &Camera,
     settings: &RenderSettings,
     columns: std::ops::Range<u32>,
     y: u32,
+    sums: &mut [DVec3],
+    counts: &mut [u32],
     counters: &mut TraceCounters,
-) -> Vec<(DVec3, u32)> {
+) {
     let cap = settings.samples.max(1);
     let (first, last) = settings.sample_range.unwrap_or((0, cap));
     let batch = settings.adaptive.map_or(cap, |a| a.batch.max(1));
     let width = columns.len();
-    let mut sums = vec![(DVec3::ZERO, 0u32); width];
+    sums.fill(DVec3::ZERO);
+    counts.fill(0);
     let mut luminance_sums = vec![(0.0f64, 0.0f64); width];
     let mut active: Vec<usize> = (0..width).collect();
     let (mut rays, mut streams) = (Vec::with_capacity(width), Vec::with_capacity(width));
@@ -323,12 +325,17 @@ fn row_in_packets<A: Accel>(
                 streams.push(rng);
             }
             let n = rays.len();
-            integrator
-                .accel()
-                .closest_hits(&rays, &mut hits[..n], counters);
+            let accel = integrator.accel();
+            if settings.packets {
+                accel.closest_hits(&rays, &mut hits[..n], counters);
+            } else {
+                for (hit, ray) in hits.iter_mut().zip(&rays) {
+                    *hit = accel.closest_hit(ray, counters);
+                }
+            }
             for (k, &p) in active.iter().enumerate() {
                 let value = integrator.radiance_from(&rays[k], hits[k], &mut streams[k], counters);
-                sums[p].0 += value.as_dvec3();
+                sums[p] += value.as_dvec3();
                 let l = luminance(value) as f64;
                 luminance_sums[p].0 += l;
                 luminance_sums[p].1 += l * l;
@@ -336,7 +343,7 @@ fn row_in_packets<A: Accel>(
         }
         done = end;
         for &p in &active {
-            sums[p].1 = done - first;
+            counts[p] = done - first;
         }
         if let Some(a) = settings.adaptive {
             if done < last {
@@ -347,44 +354,6 @@ fn row_in_packets<A: Accel>(
             }
         }
     }
-    sums
-}
-
-/// Sum of the samples of pixel `(x, y)` (all of them, or the settings'
-/// sample range) in double precision, and the number taken.
-fn pixel<A: Accel>(
-    integrator: &Integrator<A>,
-    camera: &Camera,
-    settings: &RenderSettings,
-    x: u32,
-    y: u32,
-    counters: &mut TraceCounters,
-) -> (DVec3, u32) {
-    let cap = settings.samples.max(1);
-    let (first, last) = settings.sample_range.unwrap_or((0, cap));
-    let batch = settings.adaptive.map_or(cap, |a| a.batch.max(1));
-    let mut sum = DVec3::ZERO;
-    let (mut s1, mut s2) = (0.0f64, 0.0f64);
-    let mut done = first;
-    while done < last {
-        let end = done.saturating_add(batch).min(last);
-        for i in done..end {
-            let (ray, mut rng) = camera_sample(camera, settings, x, y, i);
-            let value = integrator.radiance(&ray, &mut rng, counters);
-            sum += value.as_dvec3();
-            let l = luminance(value) as f64;
-            s1 += l;
-            s2 += l * l;
-        }
-        done = end;
-        let n = done - first;
-        if let Some(a) = settings.adaptive {
-            if done < last && converged(&a, n, s1, s2) {
-                break;
-            }
-        }
-    }
-    (sum, done - first)
 }
 
 #[cfg(test)]

@@ -327,9 +327,16 @@ impl<V: Version> Accel for EmbreeAccel<'_, V> {
             let traced = self
                 .scene
                 .trace_batched(mode, COHERENT, &flat[..n], false, answers);
-            debug_assert!(traced.is_some(), "the device reported {mode:?}");
+            if traced.is_none() {
+                // The device reported the width but the call was refused:
+                // these rays alone (already counted).
+                for (ray, answer) in rays.iter().zip(out) {
+                    *answer = self.closest_hit(ray, &mut TraceCounters::default());
+                }
+                continue;
+            }
             for (answer, h) in out.iter_mut().zip(&hits[..n]) {
-                *answer = (traced.is_some() && h.geom != INVALID_GEOMETRY_ID).then(|| {
+                *answer = (h.geom != INVALID_GEOMETRY_ID).then(|| {
                     self.to_hit(&RawHit {
                         t: h.t,
                         geometry: h.geom,
@@ -360,9 +367,14 @@ impl<V: Version> Accel for EmbreeAccel<'_, V> {
             let traced = self
                 .scene
                 .trace_batched(mode, COHERENT, &flat[..n], true, answers);
-            debug_assert!(traced.is_some(), "the device reported {mode:?}");
+            if traced.is_none() {
+                for (ray, answer) in rays.iter().zip(out) {
+                    *answer = self.occluded(ray, &mut TraceCounters::default());
+                }
+                continue;
+            }
             for (answer, &b) in out.iter_mut().zip(&blocked[..n]) {
-                *answer = traced.is_some() && b != 0;
+                *answer = b != 0;
             }
         }
     }
