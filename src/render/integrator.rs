@@ -168,10 +168,195 @@ struct Previous {
     facing: Facing,
 }
 
-/// The mean of `n` samples of one light group.
-#[inline(always)]
-fn mean(n: u32, mut sample: impl FnMut() -> Vec3) -> Vec3 {
-    (0..n).map(|_| sample()).sum::<Vec3>() / n as f32
+/// Direct lighting's running sum at one vertex: each group's terms (the
+/// samples of one light, or one light group) in order, then the group's
+/// mean added to the sum.
+#[derive(Clone, Copy, Default)]
+struct DirectSum {
+    sum: Vec3,
+    group: Vec3,
+}
+
+impl DirectSum {
+    fn add(&mut self, term: Vec3) {
+        self.group += term;
+    }
+
+    /// Closes a group of `n` terms.
+    fn mean(&mut self, n: u32) {
+        self.sum += self.group / n as f32;
+        self.group = Vec3::ZERO;
+    }
+}
+
+/// Where direct lighting's terms go: answered at once, one shadow ray at
+/// a time ([`Now`]), or recorded with their shadow rays for one batch
+/// query over many paths ([`Deferred`], [`ShadowTape`]). Both sum the same
+/// terms in the same order, so the two give the same bits.
+trait Shadows {
+    /// A term without a shadow ray.
+    fn term(&mut self, term: Vec3);
+    /// A term that counts unless `shadow` is blocked (zero then).
+    fn unless_blocked(&mut self, shadow: &Ray, term: impl FnOnce() -> Vec3);
+    /// Closes a group of `n` terms: its mean joins the sum.
+    fn mean(&mut self, n: u32);
+    /// The counters the vertex's other rays (hemisphere sampling's) count
+    /// in.
+    fn counters(&mut self) -> &mut TraceCounters;
+}
+
+/// Shadow rays traced one at a time as direct lighting asks.
+struct Now<'c, A> {
+    accel: &'c A,
+    counters: &'c mut TraceCounters,
+    sum: DirectSum,
+}
+
+impl<A: Accel> Shadows for Now<'_, A> {
+    fn term(&mut self, term: Vec3) {
+        self.sum.add(term);
+    }
+
+    fn unless_blocked(&mut self, shadow: &Ray, term: impl FnOnce() -> Vec3) {
+        let blocked = self.accel.occluded(shadow, self.counters);
+        self.sum.add(if blocked { Vec3::ZERO } else { term() });
+    }
+
+    fn mean(&mut self, n: u32) {
+        self.sum.mean(n);
+    }
+
+    fn counters(&mut self) -> &mut TraceCounters {
+        self.counters
+    }
+}
+
+/// The direct lighting of paths paused at their first vertex
+/// ([`Integrator::begin`]): each one's terms, and the shadow rays they wait
+/// on, which the caller answers with one batch query
+/// ([`Accel::occluded_all`]) before the paths go on
+/// ([`Integrator::finish`]).
+#[derive(Default)]
+pub struct ShadowTape {
+    terms: Vec<Term>,
+    rays: Vec<Ray>,
+}
+
+#[derive(Clone, Copy)]
+enum Term {
+    Value(Vec3),
+    /// Counts unless the tape's next shadow ray is blocked.
+    UnlessBlocked(Vec3),
+    Mean(u32),
+}
+
+/// One vertex's part of a tape: its terms, and where its shadow rays
+/// start.
+#[derive(Clone, Copy, Debug)]
+struct Span {
+    first_term: u32,
+    end_term: u32,
+    first_ray: u32,
+}
+
+impl ShadowTape {
+    /// Empties the tape for the next batch of paths.
+    pub fn clear(&mut self) {
+        self.terms.clear();
+        self.rays.clear();
+    }
+
+    /// The shadow rays the paused paths wait on, in order.
+    pub fn rays(&self) -> &[Ray] {
+        &self.rays
+    }
+
+    /// The direct lighting of `span`, given which of the tape's rays are
+    /// blocked: the sum [`Now`] gives.
+    fn sum(&self, span: &Span, blocked: &[bool]) -> Vec3 {
+        let mut sum = DirectSum::default();
+        let mut ray = span.first_ray as usize;
+        for term in &self.terms[span.first_term as usize..span.end_term as usize] {
+            match *term {
+                Term::Value(v) => sum.add(v),
+                Term::UnlessBlocked(v) => {
+                    sum.add(if blocked[ray] { Vec3::ZERO } else { v });
+                    ray += 1;
+                }
+                Term::Mean(n) => sum.mean(n),
+            }
+        }
+        sum.sum
+    }
+}
+
+/// Records direct lighting's terms and shadow rays on a tape.
+struct Deferred<'t> {
+    tape: &'t mut ShadowTape,
+    counters: &'t mut TraceCounters,
+}
+
+impl Shadows for Deferred<'_> {
+    fn term(&mut self, term: Vec3) {
+        self.tape.terms.push(Term::Value(term));
+    }
+
+    fn unless_blocked(&mut self, shadow: &Ray, term: impl FnOnce() -> Vec3) {
+        self.tape.rays.push(*shadow);
+        self.tape.terms.push(Term::UnlessBlocked(term()));
+    }
+
+    fn mean(&mut self, n: u32) {
+        self.tape.terms.push(Term::Mean(n));
+    }
+
+    fn counters(&mut self) -> &mut TraceCounters {
+        self.counters
+    }
+}
+
+/// A path as far as it has gone: what it has gathered, its throughput,
+/// the ray it is on and where that ray left.
+#[derive(Clone, Copy)]
+struct Walk {
+    total: Vec3,
+    beta: Vec3,
+    ray: Ray,
+    prev: Previous,
+    depth: u32,
+}
+
+impl Walk {
+    /// A path starting along a camera ray: emission it finds is counted
+    /// fully.
+    fn new(camera_ray: &Ray) -> Walk {
+        Walk {
+            total: Vec3::ZERO,
+            beta: Vec3::ONE,
+            ray: *camera_ray,
+            prev: Previous {
+                bsdf_pdf: 0.0,
+                from: camera_ray.origin,
+                facing: Facing::geometric(Vec3::Y),
+            },
+            depth: 0,
+        }
+    }
+}
+
+/// A path after [`Integrator::begin`]: finished at its first vertex, or
+/// paused there until its direct lighting's shadow rays are answered.
+pub enum Begun<'s> {
+    Done(Vec3),
+    Paused(Paused<'s>),
+}
+
+/// A path paused at its first scattering vertex.
+pub struct Paused<'s> {
+    walk: Walk,
+    vertex: Vertex<'s>,
+    /// Its direct lighting on the tape, if the vertex takes any.
+    direct: Option<Span>,
 }
 
 /// The power heuristic weight of a strategy with density `a` (samples
@@ -308,6 +493,7 @@ impl<'a, A: Accel> Integrator<'a, A> {
         le
     }
 
+    /// The path along a camera ray whose closest hit is `first`.
     fn path(
         &self,
         camera_ray: &Ray,
@@ -316,173 +502,284 @@ impl<'a, A: Accel> Integrator<'a, A> {
         rng: &mut Rng,
         counters: &mut TraceCounters,
     ) -> Vec3 {
-        let mis = s.estimator == DirectEstimator::Mis;
-        let mut total = Vec3::ZERO;
-        let mut beta = Vec3::ONE;
-        let mut ray = *camera_ray;
-        // Emission is counted fully at the camera and after specular events.
-        let mut prev = Previous {
-            bsdf_pdf: 0.0,
-            from: ray.origin,
-            facing: Facing::geometric(Vec3::Y),
-        };
-        let mut depth = 0u32;
-        loop {
-            let hit = if depth == 0 {
-                first
-            } else {
-                self.accel.closest_hit(&ray, counters)
-            };
-            let Some(hit) = hit else {
-                if s.counts(depth) && !(depth == 0 && s.background == Background::Black) {
-                    total += beta * self.escaped(s, &prev, ray.dir);
-                }
-                break;
-            };
-            let sp = self.scene.surface_point(&ray, &hit);
-            let m = &self.scene.materials[sp.material as usize];
-            let wo = -ray.dir;
-            if s.counts(depth) {
-                let le = emitted(m, wo.dot(sp.geometric_normal));
-                if le != Vec3::ZERO {
-                    if prev.bsdf_pdf == 0.0 {
-                        total += beta * le;
-                    } else if mis {
-                        let light = self.light_pdf(
-                            s,
-                            &prev,
-                            hit.prim,
-                            sp.position,
-                            sp.geometric_normal,
-                            ray.dir,
-                        );
-                        total += beta * le * power_heuristic(prev.bsdf_pdf, light);
-                    }
-                }
-            }
-            if depth >= s.last_bounce() {
-                break;
-            }
-            // Opaque surfaces are two-sided: face the normals towards wo.
-            // Dielectrics keep the outward normal to know inside from out.
-            let dielectric = matches!(m, Material::Glass { .. } | Material::Refraction { .. });
-            let back = !dielectric && wo.dot(sp.geometric_normal) < 0.0;
-            let (ng, ns) = if back {
-                (-sp.geometric_normal, -sp.shading_normal)
-            } else {
-                (sp.geometric_normal, sp.shading_normal)
-            };
-            // A smooth normal can tilt away from a view that the geometric
-            // normal faces: sample on the view's side of the shading plane
-            // (which side scatters is the geometric normal's call).
-            let ns = if !dielectric && wo.dot(ns) < 0.0 {
-                -ns
-            } else {
-                ns
-            };
-            let frame = Frame::new(ns);
-            let wo_local = frame.to_local(wo);
-            let at = SpawnPoint {
-                ng,
-                ..sp.spawn_point()
-            };
-            // Shadow rays leave from the point lifted onto the smooth
-            // surface (the shadow-terminator fix), where there is one.
-            let lift = if is_specular(m) {
-                Vec3::ZERO
-            } else {
-                self.scene.shadow_lift(&hit, sp.position, ng)
-            };
-            let lifted = (lift.dot(ng) > 0.0).then(|| SpawnPoint {
-                p: at.p + lift,
-                error: at.error + (at.p.abs() + lift.abs()) * gamma(1),
-                ng,
-            });
-            let vertex = Vertex {
-                at: &at,
-                lifted: lifted.as_ref(),
-                frame: &frame,
-                wo: wo_local,
-                m,
-            };
-            if !is_specular(m) {
-                let mut light_rng = rng.split();
-                if s.counts(depth + 1) {
-                    total += beta * self.direct(&vertex, s, &mut light_rng, counters);
-                }
-            }
-            if depth >= 1 {
-                if let Some(p) = s.russian_roulette {
-                    if rng.next_f32() >= p {
-                        break;
-                    }
-                    beta /= p;
-                }
-            }
-            let Some(bs) = material::sample(m, wo_local, rng) else {
-                break;
-            };
-            let wi = frame.to_world(bs.wi);
-            // The geometric normal decides on which side an opaque surface
-            // scatters.
-            if !dielectric && wi.dot(ng) <= 0.0 {
-                break;
-            }
-            beta *= bs.weight;
-            if beta == Vec3::ZERO || !beta.is_finite() {
-                break;
-            }
-            prev = Previous {
-                bsdf_pdf: if bs.specular { 0.0 } else { bs.pdf },
-                from: at.p,
-                facing: vertex.facing(),
-            };
-            ray = Ray::spawn(&at, wi, f32::INFINITY);
-            depth += 1;
-        }
-        total
+        self.walk_on(Walk::new(camera_ray), first, s, rng, counters)
     }
 
-    /// Direct lighting at a vertex: one sample per delta light, and the
-    /// chosen estimator for everything else.
-    fn direct(
+    /// Starts the path along a camera ray whose closest hit is `first`
+    /// and pauses it at its first vertex, its direct lighting recorded on
+    /// `tape` ([`ShadowTape`]); [`Self::finish`] goes on once the tape's
+    /// rays are answered. Together the two give [`Self::radiance_from`]'s
+    /// value, the same random numbers drawn in the same order; normal
+    /// shading, and paths that end at once, are done here.
+    pub fn begin(
         &self,
-        v: &Vertex,
+        camera_ray: &Ray,
+        first: Option<Hit>,
+        rng: &mut Rng,
+        tape: &mut ShadowTape,
+        counters: &mut TraceCounters,
+    ) -> Begun<'a> {
+        let Shading::Path(s) = self.shading else {
+            return Begun::Done(self.radiance_from(camera_ray, first, rng, counters));
+        };
+        let mut walk = Walk::new(camera_ray);
+        let Some(vertex) = self.arrive(&mut walk, first, &s) else {
+            return Begun::Done(walk.total);
+        };
+        // Tapes hold one row's paths: far fewer than 2^32 terms.
+        let (first_term, first_ray) = (tape.terms.len() as u32, tape.rays.len() as u32);
+        let mut deferred = Deferred { tape, counters };
+        let lit = self.light(&walk, &vertex, &s, rng, &mut deferred);
+        let direct = lit.then(|| Span {
+            first_term,
+            end_term: deferred.tape.terms.len() as u32,
+            first_ray,
+        });
+        Begun::Paused(Paused {
+            walk,
+            vertex,
+            direct,
+        })
+    }
+
+    /// Goes on with a path [`Self::begin`] paused, `blocked` answering
+    /// the tape's shadow rays (`blocked[i]` for `tape.rays()[i]`).
+    pub fn finish(
+        &self,
+        begun: &Begun<'a>,
+        tape: &ShadowTape,
+        blocked: &[bool],
+        rng: &mut Rng,
+        counters: &mut TraceCounters,
+    ) -> Vec3 {
+        let Paused {
+            walk,
+            vertex,
+            direct,
+        } = match begun {
+            Begun::Done(value) => return *value,
+            Begun::Paused(paused) => paused,
+        };
+        let mut walk = *walk;
+        // Only path shading pauses.
+        let Shading::Path(s) = self.shading else {
+            return walk.total;
+        };
+        if let Some(span) = direct {
+            walk.total += walk.beta * tape.sum(span, blocked);
+        }
+        if !self.leave(&mut walk, vertex, &s, rng) {
+            return walk.total;
+        }
+        let hit = self.accel.closest_hit(&walk.ray, counters);
+        self.walk_on(walk, hit, &s, rng, counters)
+    }
+
+    /// The rest of a path from `walk`, whose ray's closest hit is `hit`.
+    fn walk_on(
+        &self,
+        mut walk: Walk,
+        mut hit: Option<Hit>,
         s: &PathSettings,
         rng: &mut Rng,
         counters: &mut TraceCounters,
     ) -> Vec3 {
-        let mut sum = Vec3::ZERO;
+        while let Some(vertex) = self.arrive(&mut walk, hit, s) {
+            let mut now = Now {
+                accel: self.accel,
+                counters: &mut *counters,
+                sum: DirectSum::default(),
+            };
+            if self.light(&walk, &vertex, s, rng, &mut now) {
+                walk.total += walk.beta * now.sum.sum;
+            }
+            if !self.leave(&mut walk, &vertex, s, rng) {
+                break;
+            }
+            hit = self.accel.closest_hit(&walk.ray, counters);
+        }
+        walk.total
+    }
+
+    /// The path's ray arrives at `hit`: counts what it sees there (the
+    /// sky if it missed, emission if it hit a light), and gives the
+    /// vertex it scatters from, unless the path ends here.
+    #[inline(always)]
+    fn arrive(&self, walk: &mut Walk, hit: Option<Hit>, s: &PathSettings) -> Option<Vertex<'a>> {
+        let (ray, depth, prev) = (&walk.ray, walk.depth, &walk.prev);
+        let Some(hit) = hit else {
+            if s.counts(depth) && !(depth == 0 && s.background == Background::Black) {
+                walk.total += walk.beta * self.escaped(s, prev, ray.dir);
+            }
+            return None;
+        };
+        let sp = self.scene.surface_point(ray, &hit);
+        let m = &self.scene.materials[sp.material as usize];
+        let wo = -ray.dir;
+        if s.counts(depth) {
+            let le = emitted(m, wo.dot(sp.geometric_normal));
+            if le != Vec3::ZERO {
+                if prev.bsdf_pdf == 0.0 {
+                    walk.total += walk.beta * le;
+                } else if s.estimator == DirectEstimator::Mis {
+                    let light = self.light_pdf(
+                        s,
+                        prev,
+                        hit.prim,
+                        sp.position,
+                        sp.geometric_normal,
+                        ray.dir,
+                    );
+                    walk.total += walk.beta * le * power_heuristic(prev.bsdf_pdf, light);
+                }
+            }
+        }
+        if depth >= s.last_bounce() {
+            return None;
+        }
+        // Opaque surfaces are two-sided: face the normals towards wo.
+        // Dielectrics keep the outward normal to know inside from out.
+        let dielectric = matches!(m, Material::Glass { .. } | Material::Refraction { .. });
+        let back = !dielectric && wo.dot(sp.geometric_normal) < 0.0;
+        let (ng, ns) = if back {
+            (-sp.geometric_normal, -sp.shading_normal)
+        } else {
+            (sp.geometric_normal, sp.shading_normal)
+        };
+        // A smooth normal can tilt away from a view that the geometric
+        // normal faces: sample on the view's side of the shading plane
+        // (which side scatters is the geometric normal's call).
+        let ns = if !dielectric && wo.dot(ns) < 0.0 {
+            -ns
+        } else {
+            ns
+        };
+        let frame = Frame::new(ns);
+        let at = SpawnPoint {
+            ng,
+            ..sp.spawn_point()
+        };
+        // Shadow rays leave from the point lifted onto the smooth
+        // surface (the shadow-terminator fix), where there is one.
+        let lift = if is_specular(m) {
+            Vec3::ZERO
+        } else {
+            self.scene.shadow_lift(&hit, sp.position, ng)
+        };
+        let lifted = (lift.dot(ng) > 0.0).then(|| SpawnPoint {
+            p: at.p + lift,
+            error: at.error + (at.p.abs() + lift.abs()) * gamma(1),
+            ng,
+        });
+        Some(Vertex {
+            at,
+            lifted,
+            frame,
+            wo: frame.to_local(wo),
+            m,
+            dielectric,
+        })
+    }
+
+    /// Direct lighting at `vertex` into `sink`, if the vertex takes any
+    /// (it is not specular, and its bounce is shown). The light stream is
+    /// split off the path's at every vertex that is not specular, used or
+    /// not, so the path's own random numbers do not depend on it.
+    #[inline(always)]
+    fn light(
+        &self,
+        walk: &Walk,
+        vertex: &Vertex,
+        s: &PathSettings,
+        rng: &mut Rng,
+        sink: &mut impl Shadows,
+    ) -> bool {
+        if is_specular(vertex.m) {
+            return false;
+        }
+        let mut light_rng = rng.split();
+        if !s.counts(walk.depth + 1) {
+            return false;
+        }
+        self.direct(vertex, s, &mut light_rng, sink);
+        true
+    }
+
+    /// The path leaves `vertex` along a BSDF sample (after Russian
+    /// roulette from the second vertex on); false if it ends there.
+    #[inline(always)]
+    fn leave(&self, walk: &mut Walk, vertex: &Vertex, s: &PathSettings, rng: &mut Rng) -> bool {
+        if walk.depth >= 1 {
+            if let Some(p) = s.russian_roulette {
+                if rng.next_f32() >= p {
+                    return false;
+                }
+                walk.beta /= p;
+            }
+        }
+        let Some(bs) = material::sample(vertex.m, vertex.wo, rng) else {
+            return false;
+        };
+        let wi = vertex.frame.to_world(bs.wi);
+        // The geometric normal decides on which side an opaque surface
+        // scatters.
+        if !vertex.dielectric && wi.dot(vertex.at.ng) <= 0.0 {
+            return false;
+        }
+        walk.beta *= bs.weight;
+        if walk.beta == Vec3::ZERO || !walk.beta.is_finite() {
+            return false;
+        }
+        walk.prev = Previous {
+            bsdf_pdf: if bs.specular { 0.0 } else { bs.pdf },
+            from: vertex.at.p,
+            facing: vertex.facing(),
+        };
+        walk.ray = Ray::spawn(&vertex.at, wi, f32::INFINITY);
+        walk.depth += 1;
+        true
+    }
+
+    /// Direct lighting at a vertex into `sink`: one sample per delta
+    /// light, and the chosen estimator for everything else, each light
+    /// group's samples averaged.
+    fn direct(&self, v: &Vertex, s: &PathSettings, rng: &mut Rng, sink: &mut impl Shadows) {
         for light in &self.lights.delta {
-            sum += self.light_sample(v, light, 1.0, None, rng, counters);
+            self.light_sample(v, light, 1.0, None, rng, sink);
+            sink.mean(1);
         }
         let n = s.light_samples.max(1);
         let weighting = (s.estimator == DirectEstimator::Mis).then_some(n as f32);
         match s.estimator {
             DirectEstimator::LightSampling | DirectEstimator::Mis => {
                 for light in &self.lights.each {
-                    sum += mean(n, || {
-                        self.light_sample(v, light, 1.0, weighting, rng, counters)
-                    });
+                    for _ in 0..n {
+                        self.light_sample(v, light, 1.0, weighting, rng, sink);
+                    }
+                    sink.mean(n);
                 }
                 if !self.lights.emitters.is_empty() {
-                    sum += mean(n, || {
+                    for _ in 0..n {
                         let (i, pmf) = self.lights.pick_emitter(rng.next_f32());
                         let light = &self.lights.emitters[i];
-                        self.light_sample(v, light, pmf, weighting, rng, counters)
-                    });
+                        self.light_sample(v, light, pmf, weighting, rng, sink);
+                    }
+                    sink.mean(n);
                 }
                 if let Some(env) = &self.lights.environment {
-                    sum += mean(n, || match sample_environment(env, rng) {
-                        Some(ls) => self.unoccluded(v, &ls, 1.0, weighting, counters),
-                        None => Vec3::ZERO,
-                    });
+                    for _ in 0..n {
+                        match sample_environment(env, rng) {
+                            Some(ls) => self.unoccluded(v, &ls, 1.0, weighting, sink),
+                            None => sink.term(Vec3::ZERO),
+                        }
+                    }
+                    sink.mean(n);
                 }
             }
             DirectEstimator::Hemisphere => {
                 let groups = self.lights.groups() as u32;
                 if groups == 0 {
-                    return sum;
+                    return;
                 }
                 // Uniform over the geometric hemisphere: exactly the
                 // directions the surface scatters into. Where the point
@@ -491,12 +788,11 @@ impl<'a, A: Accel> Integrator<'a, A> {
                 // facet ([`Self::unoccluded`]): then the whole sphere, the
                 // same directions kept and traced from the same point.
                 let around = Frame::new(v.at.ng);
-                let (from, pdf) = match v.lifted {
+                let (from, pdf) = match &v.lifted {
                     Some(lifted) => (lifted, UNIFORM_HEMISPHERE_PDF * 0.5),
-                    None => (v.at, UNIFORM_HEMISPHERE_PDF),
+                    None => (&v.at, UNIFORM_HEMISPHERE_PDF),
                 };
                 let count = n * groups;
-                let mut acc = Vec3::ZERO;
                 for _ in 0..count {
                     let (a, b) = rng.next_2d();
                     let wi = match v.lifted {
@@ -512,7 +808,7 @@ impl<'a, A: Accel> Integrator<'a, A> {
                         continue;
                     }
                     let ray = Ray::spawn(from, wi, f32::INFINITY);
-                    let incoming = match self.accel.closest_hit(&ray, counters) {
+                    let incoming = match self.accel.closest_hit(&ray, sink.counters()) {
                         Some(hit) => {
                             let material =
                                 self.scene.materials[self.scene.material_of(hit.prim) as usize];
@@ -520,12 +816,11 @@ impl<'a, A: Accel> Integrator<'a, A> {
                         }
                         None => self.sky(wi),
                     };
-                    acc += f * incoming * (wi_local.z.abs() / pdf);
+                    sink.term(f * incoming * (wi_local.z.abs() / pdf));
                 }
-                sum += acc / count as f32;
+                sink.mean(count);
             }
         }
-        sum
     }
 
     /// One light sample with its shadow ray: `f L |cos| / (pick p)`, times
@@ -539,26 +834,26 @@ impl<'a, A: Accel> Integrator<'a, A> {
         pick: f32,
         weighting: Option<f32>,
         rng: &mut Rng,
-        counters: &mut TraceCounters,
-    ) -> Vec3 {
+        sink: &mut impl Shadows,
+    ) {
         // The ambient light is sampled around the geometric normal: its
         // hemisphere is exactly the directions the surface scatters into.
         match sample_li(light, v.at.p, v.facing(), rng) {
-            Some(ls) => self.unoccluded(v, &ls, pick, weighting, counters),
-            None => Vec3::ZERO,
+            Some(ls) => self.unoccluded(v, &ls, pick, weighting, sink),
+            None => sink.term(Vec3::ZERO),
         }
     }
 
-    /// The contribution of light sample `ls` (picked with probability
-    /// `pick`) if its shadow ray is clear; see [`Self::light_sample`].
+    /// The term of light sample `ls` (picked with probability `pick`),
+    /// counted if its shadow ray is clear; see [`Self::light_sample`].
     fn unoccluded(
         &self,
         v: &Vertex,
         ls: &LightSample,
         pick: f32,
         weighting: Option<f32>,
-        counters: &mut TraceCounters,
-    ) -> Vec3 {
+        sink: &mut impl Shadows,
+    ) {
         // The geometric normal decides which side is lit, but where the
         // point lifts onto the smooth surface (a coarse mesh's
         // terminator) light in front of the shading normal reaches it
@@ -567,33 +862,32 @@ impl<'a, A: Accel> Integrator<'a, A> {
         let wi_local = v.frame.to_local(ls.wi);
         let in_front = ls.wi.dot(v.at.ng) > 0.0;
         if !in_front && (v.lifted.is_none() || wi_local.z <= 0.0) {
-            return Vec3::ZERO;
+            return sink.term(Vec3::ZERO);
         }
         let f = material::eval(v.m, v.wo, wi_local);
         if f == Vec3::ZERO {
-            return Vec3::ZERO;
+            return sink.term(Vec3::ZERO);
         }
-        let shadow = match v.lifted {
+        let shadow = match &v.lifted {
             Some(from) if ls.distance.is_finite() => {
                 let to = v.at.p + ls.wi * ls.distance - from.p;
                 let length = to.length();
                 Ray::shadow(from, to / length, length)
             }
             Some(from) => Ray::shadow(from, ls.wi, ls.distance),
-            None => Ray::shadow(v.at, ls.wi, ls.distance),
+            None => Ray::shadow(&v.at, ls.wi, ls.distance),
         };
-        if self.accel.occluded(&shadow, counters) {
-            return Vec3::ZERO;
-        }
-        // BSDF sampling never leaves behind the geometric normal, so light
-        // sampling alone covers those directions.
-        let weight = match weighting {
-            Some(samples) if ls.pdf.is_finite() && in_front => {
-                power_heuristic(samples * pick * ls.pdf, material::pdf(v.m, v.wo, wi_local))
-            }
-            _ => 1.0,
-        };
-        f * ls.contribution * (wi_local.z.abs() * weight / pick)
+        sink.unless_blocked(&shadow, || {
+            // BSDF sampling never leaves behind the geometric normal, so
+            // light sampling alone covers those directions.
+            let weight = match weighting {
+                Some(samples) if ls.pdf.is_finite() && in_front => {
+                    power_heuristic(samples * pick * ls.pdf, material::pdf(v.m, v.wo, wi_local))
+                }
+                _ => 1.0,
+            };
+            f * ls.contribution * (wi_local.z.abs() * weight / pick)
+        });
     }
 }
 
@@ -608,14 +902,17 @@ impl Vertex<'_> {
     }
 }
 
-/// A scattering vertex as direct lighting sees it: where rays leave, the
-/// shading frame, the outgoing direction in it, and the material.
-struct Vertex<'v> {
-    at: &'v SpawnPoint,
+/// A scattering vertex as direct lighting and BSDF sampling see it: where
+/// rays leave, the shading frame, the outgoing direction in it, and the
+/// material.
+struct Vertex<'s> {
+    at: SpawnPoint,
     /// Where shadow rays leave, if not from `at` (see
     /// [`crate::scene::terminator_lift`]).
-    lifted: Option<&'v SpawnPoint>,
-    frame: &'v Frame,
+    lifted: Option<SpawnPoint>,
+    frame: Frame,
     wo: Vec3,
-    m: &'v Material,
+    m: &'s Material,
+    /// Glass: keeps its outward normal and scatters to either side.
+    dielectric: bool,
 }

@@ -26,7 +26,7 @@ use self::camera::{Camera, CameraMode, ThinLens};
 use self::camera_file::CourseCamera;
 use self::film::Film;
 use self::film::Origin;
-use self::integrator::{Integrator, Shading};
+use self::integrator::{Integrator, Shading, ShadowTape};
 use crate::accel::{Accel, TraceCounters};
 use crate::geom::sampling::{luminance, pixel_position, Rng};
 use crate::geom::Ray;
@@ -70,8 +70,9 @@ pub struct RenderSettings {
     pub lens: Option<ThinLens>,
     /// A camera file's camera (`-c`), instead of `camera`'s placement.
     pub course_camera: Option<CourseCamera>,
-    /// Trace each row's camera rays of a sample together, through the
-    /// backend's batch query (packets), instead of one at a time. The
+    /// Trace each row's camera rays of a sample together, and then the
+    /// shadow rays of their first hits' direct lighting, through the
+    /// backend's batch queries (packets), instead of one at a time. The
     /// image is the same either way.
     pub packets: bool,
 }
@@ -288,10 +289,12 @@ fn converged(a: &Adaptive, n: u32, s1: f64, s2: f64) -> bool {
 /// or the settings' sample range) in double precision into `sums`, and the
 /// number each took into `counts`. Sample index by sample index, the
 /// camera rays of the row's unfinished pixels are traced together through
-/// the backend's batch query (packets of neighbouring rays; with
-/// `settings.packets` off, one at a time), and each path goes on from its
-/// ray's hit. Each pixel takes its samples in order from its own random
-/// streams, so the sums do not depend on the batching.
+/// the backend's batch query (packets of neighbouring rays), then the
+/// shadow rays of their first vertices' direct lighting together, and
+/// each path goes on alone from there; with `settings.packets` off, every
+/// ray is traced alone. Each pixel takes its samples in order from its
+/// own random streams, and direct lighting sums the same terms in the same
+/// order either way, so the sums do not depend on the batching.
 #[allow(clippy::too_many_arguments)]
 fn render_row<A: Accel>(
     integrator: &Integrator<A>,
@@ -313,6 +316,8 @@ fn render_row<A: Accel>(
     let mut active: Vec<usize> = (0..width).collect();
     let (mut rays, mut streams) = (Vec::with_capacity(width), Vec::with_capacity(width));
     let mut hits = vec![None; width];
+    let (mut tape, mut blocked, mut values) = (ShadowTape::default(), Vec::new(), Vec::new());
+    let mut begun = Vec::with_capacity(width);
     let mut done = first;
     while done < last && !active.is_empty() {
         let end = done.saturating_add(batch).min(last);
@@ -326,15 +331,30 @@ fn render_row<A: Accel>(
             }
             let n = rays.len();
             let accel = integrator.accel();
+            values.clear();
             if settings.packets {
+                // Camera rays together; then every path pauses at its
+                // first vertex while that vertex's shadow rays are traced
+                // together too, and each goes on alone from there.
                 accel.closest_hits(&rays, &mut hits[..n], counters);
+                tape.clear();
+                begun.extend((0..n).map(|k| {
+                    integrator.begin(&rays[k], hits[k], &mut streams[k], &mut tape, counters)
+                }));
+                blocked.clear();
+                blocked.resize(tape.rays().len(), false);
+                accel.occluded_all(tape.rays(), &mut blocked, counters);
+                for (b, stream) in begun.iter().zip(&mut streams) {
+                    values.push(integrator.finish(b, &tape, &blocked, stream, counters));
+                }
+                begun.clear();
             } else {
-                for (hit, ray) in hits.iter_mut().zip(&rays) {
-                    *hit = accel.closest_hit(ray, counters);
+                for (ray, stream) in rays.iter().zip(&mut streams) {
+                    let hit = accel.closest_hit(ray, counters);
+                    values.push(integrator.radiance_from(ray, hit, stream, counters));
                 }
             }
-            for (k, &p) in active.iter().enumerate() {
-                let value = integrator.radiance_from(&rays[k], hits[k], &mut streams[k], counters);
+            for (&value, &p) in values.iter().zip(&active) {
                 sums[p] += value.as_dvec3();
                 let l = luminance(value) as f64;
                 luminance_sums[p].0 += l;

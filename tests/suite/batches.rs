@@ -5,6 +5,8 @@
 //! other code than its single-ray ones, with the same primitive and `t`
 //! within 1e-5 relative (as `embree_backend.rs` checks its batch calls).
 
+use std::sync::atomic::{AtomicU64, Ordering};
+
 use hybrid::accel::native::NativeOptions;
 use hybrid::accel::{Accel, BackendConfig, TraceCounters};
 use hybrid::geom::{Hit, Ray};
@@ -12,7 +14,7 @@ use hybrid::parity::rays::{
     bounce_rays, camera_rays, incoherent_rays, occlusion_rays, shadow_rays,
 };
 use hybrid::render::camera::ThinLens;
-use hybrid::render::integrator::{PathSettings, Shading};
+use hybrid::render::integrator::{DirectEstimator, PathSettings, Shading};
 use hybrid::render::{render, Adaptive, RenderSettings, Silent};
 use hybrid::scene::Scene;
 
@@ -182,11 +184,40 @@ fn frame(
     (out.film.sums, out.film.samples, out.counters.rays)
 }
 
+/// A backend that counts the rays reaching its batch queries and its
+/// single occlusion query (and passes everything on to `inner`).
+struct Batches<'a, A> {
+    inner: &'a A,
+    /// Rays through `closest_hits`, `occluded_all` and `occluded`.
+    counts: [AtomicU64; 3],
+}
+
+impl<A: Accel> Accel for Batches<'_, A> {
+    fn closest_hit(&self, ray: &Ray, counters: &mut TraceCounters) -> Option<Hit> {
+        self.inner.closest_hit(ray, counters)
+    }
+    fn occluded(&self, ray: &Ray, counters: &mut TraceCounters) -> bool {
+        self.counts[2].fetch_add(1, Ordering::Relaxed);
+        self.inner.occluded(ray, counters)
+    }
+    fn closest_hits(&self, rays: &[Ray], out: &mut [Option<Hit>], counters: &mut TraceCounters) {
+        self.counts[0].fetch_add(rays.len() as u64, Ordering::Relaxed);
+        self.inner.closest_hits(rays, out, counters)
+    }
+    fn occluded_all(&self, rays: &[Ray], out: &mut [bool], counters: &mut TraceCounters) {
+        self.counts[1].fetch_add(rays.len() as u64, Ordering::Relaxed);
+        self.inner.occluded_all(rays, out, counters)
+    }
+    fn stats(&self) -> hybrid::accel::AccelStats {
+        self.inner.stats()
+    }
+}
+
 /// The renderer's packets change nothing: native gives the same bits with
-/// and without them (path tracing, normals, adaptive sampling, a lens, any
-/// thread count) and traces as many rays; Embree, whose packet kernels
-/// may round `t` differently in the last bits, the same image within a
-/// hair.
+/// and without them (path tracing with each direct-lighting estimator,
+/// normals, adaptive sampling, a lens, any thread count) and traces as
+/// many rays; Embree, whose packet kernels may round `t` differently in
+/// the last bits, the same image within a hair.
 #[test]
 fn packets_leave_the_image_unchanged() {
     let scene = crate::common::default_scene();
@@ -224,6 +255,24 @@ fn packets_leave_the_image_unchanged() {
             }),
             ..base.clone()
         },
+        RenderSettings {
+            shading: Shading::Path(PathSettings {
+                estimator: DirectEstimator::LightSampling,
+                light_samples: 3,
+                max_bounces: 2,
+                ..PathSettings::default()
+            }),
+            ..base.clone()
+        },
+        RenderSettings {
+            shading: Shading::Path(PathSettings {
+                estimator: DirectEstimator::Hemisphere,
+                light_samples: 2,
+                max_bounces: 2,
+                ..PathSettings::default()
+            }),
+            ..base.clone()
+        },
     ];
     let native = BackendConfig::NATIVE.build(&scene).expect("native builds");
     for (v, settings) in variants.iter().enumerate() {
@@ -237,6 +286,34 @@ fn packets_leave_the_image_unchanged() {
             assert_eq!(alone.1, packets.1, "variant {v}: samples per pixel differ");
             assert_eq!(alone.2, packets.2, "variant {v}: rays traced differ");
         }
+    }
+    // The rays went through the batch queries: every camera ray, and
+    // every shadow ray of the first vertices (with one bounce, all of
+    // them: exactly those a render without packets traces one by one).
+    for estimator in [DirectEstimator::Mis, DirectEstimator::LightSampling] {
+        let settings = RenderSettings {
+            shading: Shading::Path(PathSettings {
+                estimator,
+                light_samples: 2,
+                max_bounces: 1,
+                ..PathSettings::default()
+            }),
+            ..base.clone()
+        };
+        let [batched, alone] = [true, false].map(|packets| {
+            let counting = Batches {
+                inner: &native,
+                counts: Default::default(),
+            };
+            frame(&scene, &counting, &settings, packets, 2);
+            counting.counts.map(AtomicU64::into_inner)
+        });
+        let pixels = u64::from(base.width * base.height * base.samples);
+        // [closest_hits, occluded_all, occluded] rays.
+        assert_eq!(batched[0], pixels, "{estimator:?}: camera rays");
+        assert!(alone[2] > pixels / 4, "{estimator:?}: {alone:?}");
+        assert_eq!(batched[1..], [alone[2], 0], "{estimator:?}: shadow rays");
+        assert_eq!(alone[..2], [0, 0]);
     }
     // Adaptive sampling did stop some pixels early, so the check above
     // covered pixels leaving the packets.
