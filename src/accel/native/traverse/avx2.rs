@@ -157,12 +157,9 @@ pub unsafe fn closest<const ROBUST: bool, L: Leaves>(
     start: ChildRef,
 ) -> bool {
     let l = lanes::<ROBUST>(ray);
-    let mut refs = [MaybeUninit::<ChildRef>::uninit(); STACK];
-    let mut dists = [MaybeUninit::<f32>::uninit(); STACK];
-    let (refs, dists) = (
-        refs.as_mut_ptr().cast::<ChildRef>(),
-        dists.as_mut_ptr().cast::<f32>(),
-    );
+    let mut refs = AlignedStack::<ChildRef>::new();
+    let mut dists = AlignedStack::<f32>::new();
+    let (refs, dists) = (refs.as_mut_ptr(), dists.as_mut_ptr());
     let mut top = 0usize;
     let mut far = _mm256_set1_ps(*t_max);
     let mut current = start;
@@ -227,8 +224,8 @@ pub unsafe fn any<const ROBUST: bool, L: Leaves>(
     start: ChildRef,
 ) -> bool {
     let l = lanes::<ROBUST>(ray);
-    let mut refs = [MaybeUninit::<ChildRef>::uninit(); STACK];
-    let refs = refs.as_mut_ptr().cast::<ChildRef>();
+    let mut refs = AlignedStack::<ChildRef>::new();
+    let refs = refs.as_mut_ptr();
     let mut top = 0usize;
     let far = _mm256_set1_ps(t_max);
     let mut current = start;

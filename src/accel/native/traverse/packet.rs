@@ -683,14 +683,10 @@ pub unsafe fn closest<W: Width, const ROBUST: bool, P: PacketLeaves<W>>(
     let lanes = packet.rays;
     let rows = packet.rows();
     let shift = _mm_cvtsi32_si128(3 * packet.octant() as i32);
-    let mut refs = [MaybeUninit::<ChildRef>::uninit(); STACK];
-    let mut masks = [MaybeUninit::<u32>::uninit(); STACK];
-    let mut dists = [MaybeUninit::<f32>::uninit(); STACK];
-    let (refs, masks, dists) = (
-        refs.as_mut_ptr().cast::<ChildRef>(),
-        masks.as_mut_ptr().cast::<u32>(),
-        dists.as_mut_ptr().cast::<f32>(),
-    );
+    let mut refs = AlignedStack::<ChildRef>::new();
+    let mut masks = AlignedStack::<u32>::new();
+    let mut dists = AlignedStack::<f32>::new();
+    let (refs, masks, dists) = (refs.as_mut_ptr(), masks.as_mut_ptr(), dists.as_mut_ptr());
     let mut top = 0usize;
     let mut t_lanes = masked_t_max::<W>(t_max, packet.mask);
     let mut far = W::max_of(t_lanes, packet.mask);
@@ -790,12 +786,9 @@ pub unsafe fn any<W: Width, const ROBUST: bool, P: PacketLeaves<W>>(
     let ia = interval::<W, ROBUST>(packet);
     let lanes = packet.rays;
     let rows = packet.rows();
-    let mut refs = [MaybeUninit::<ChildRef>::uninit(); STACK];
-    let mut masks = [MaybeUninit::<u32>::uninit(); STACK];
-    let (refs, masks) = (
-        refs.as_mut_ptr().cast::<ChildRef>(),
-        masks.as_mut_ptr().cast::<u32>(),
-    );
+    let mut refs = AlignedStack::<ChildRef>::new();
+    let mut masks = AlignedStack::<u32>::new();
+    let (refs, masks) = (refs.as_mut_ptr(), masks.as_mut_ptr());
     let mut top = 0usize;
     let mut live = packet.mask;
     let mut t_lanes = masked_t_max::<W>(t_max, live);
