@@ -90,8 +90,9 @@ pub struct RenderArgs {
     /// Seed: the same seed gives the same image for any thread count.
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
-    /// Trace camera rays one at a time instead of in packets (the image is
-    /// the same; for comparing the two).
+    /// Trace camera rays and the first hits' shadow rays one at a time
+    /// instead of in packets (the image is the same; for comparing the
+    /// two).
     #[arg(long)]
     pub no_packets: bool,
     /// Output image: .png (tone-mapped) or .exr (raw radiance).

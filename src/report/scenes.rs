@@ -329,7 +329,7 @@ pub fn measure(
     };
     // Interleaved as the rays are: a frame takes a tenth of a second, so
     // back-to-back repeats of one backend caught the machine's drift. Each
-    // backend with camera rays in packets, then alone.
+    // backend with packets (camera and first shadow rays), then alone.
     let alone = RenderSettings {
         packets: false,
         ..settings.clone()
@@ -567,7 +567,7 @@ pub fn packets_section(results: &[SceneResult]) -> (String, Value) {
         ));
     }
     let md = format!(
-        "## Packets\n\nCamera rays and the light rays of the camera's first hits, traced in batches: native in packets of sixteen rays of one octant with AVX-512, else eight (an interval test of each node's children against the packet, then the single-ray slab test lane by lane, leaves tested all the packet's rays per triangle, a child entered by one ray handed to the single-ray kernel); Embree in each batched mode its version has, called from C (`rtcIntersect8`/`rtcIntersect16`, `rtcOccluded8`/`rtcOccluded16`, Embree 3's `rtcIntersect1M`/`rtcOccluded1M` stream), the coherent hint on these rays. One thread: Mrays/s by CPU time, interleaved rounds as the headline's; all threads: wall clock, each backend's batch query and single rays. Targets (issue 28): native packets at least 1.2x Embree's best mode on camera rays and 1.0x on light rays.\n\n{}\nFrame time with camera rays in packets over without (below 1: packets are faster; the per-scene sections' frame, same image either way): {}.\n\n",
+        "## Packets\n\nCamera rays and the light rays of the camera's first hits, traced in batches: native in packets of sixteen rays of one octant with AVX-512, else eight (an interval test of each node's children against the packet, then the single-ray slab test lane by lane, leaves tested all the packet's rays per triangle, a child entered by one ray handed to the single-ray kernel); Embree in each batched mode its version has, called from C (`rtcIntersect8`/`rtcIntersect16`, `rtcOccluded8`/`rtcOccluded16`, Embree 3's `rtcIntersect1M`/`rtcOccluded1M` stream), the coherent hint on these rays. One thread: Mrays/s by CPU time, interleaved rounds as the headline's; all threads: wall clock, each backend's batch query and single rays. Targets (issue 28): native packets at least 1.2x Embree's best mode on camera rays and 1.0x on light rays.\n\n{}\nFrame time with camera rays and the first hits' shadow rays in packets over without (below 1: packets are faster; the per-scene sections' frame, same image either way): {}.\n\n",
         table.markdown(),
         frames.join("; ")
     );
@@ -609,7 +609,7 @@ pub fn section(results: &[SceneResult]) -> (String, Value) {
             })
             .collect();
         md += &format!(
-            "### {} ({}: {} primitives)\n\n{}\n{}\nCamera and light rays in every batched mode, 1 thread (Mrays/s by CPU time; each Embree called from C):\n\n{}\nThe same on {} threads, through each backend's batch query ({}):\n\n{}\nTime per frame ({w}x{h}, {spp} spp, 3 bounces, light sampling, {} threads; camera rays in packets unless said): {} (in parentheses each Embree's time / native's: greater than 1 means native is faster).\n\n",
+            "### {} ({}: {} primitives)\n\n{}\n{}\nCamera and light rays in every batched mode, 1 thread (Mrays/s by CPU time; each Embree called from C):\n\n{}\nThe same on {} threads, through each backend's batch query ({}):\n\n{}\nTime per frame ({w}x{h}, {spp} spp, 3 bounces, light sampling, {} threads; camera rays and first hits' shadow rays in packets unless said): {} (in parentheses each Embree's time / native's: greater than 1 means native is faster).\n\n",
             r.scene,
             r.size,
             r.primitives,
