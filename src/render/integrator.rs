@@ -510,7 +510,9 @@ impl<'a, A: Accel> Integrator<'a, A> {
     /// `tape` ([`ShadowTape`]); [`Self::finish`] goes on once the tape's
     /// rays are answered. Together the two give [`Self::radiance_from`]'s
     /// value, the same random numbers drawn in the same order; normal
-    /// shading, and paths that end at once, are done here.
+    /// shading, and paths that end at once, are done here. The path is
+    /// written to `begun`.
+    #[inline]
     pub fn begin(
         &self,
         camera_ray: &Ray,
@@ -518,13 +520,16 @@ impl<'a, A: Accel> Integrator<'a, A> {
         rng: &mut Rng,
         tape: &mut ShadowTape,
         counters: &mut TraceCounters,
-    ) -> Begun<'a> {
+        begun: &mut Begun<'a>,
+    ) {
         let Shading::Path(s) = self.shading else {
-            return Begun::Done(self.radiance_from(camera_ray, first, rng, counters));
+            *begun = Begun::Done(self.radiance_from(camera_ray, first, rng, counters));
+            return;
         };
         let mut walk = Walk::new(camera_ray);
         let Some(vertex) = self.arrive(&mut walk, first, &s) else {
-            return Begun::Done(walk.total);
+            *begun = Begun::Done(walk.total);
+            return;
         };
         // Tapes hold one row's paths: far fewer than 2^32 terms.
         let (first_term, first_ray) = (tape.terms.len() as u32, tape.rays.len() as u32);
@@ -535,11 +540,13 @@ impl<'a, A: Accel> Integrator<'a, A> {
             end_term: deferred.tape.terms.len() as u32,
             first_ray,
         });
-        Begun::Paused(Paused {
+        // Written in place: a paused path is a few hundred bytes, and
+        // returning it by value copied it into the caller's list.
+        *begun = Begun::Paused(Paused {
             walk,
             vertex,
             direct,
-        })
+        });
     }
 
     /// Goes on with a path [`Self::begin`] paused, `blocked` answering

@@ -26,7 +26,7 @@ use self::camera::{Camera, CameraMode, ThinLens};
 use self::camera_file::CourseCamera;
 use self::film::Film;
 use self::film::Origin;
-use self::integrator::{Integrator, Shading, ShadowTape};
+use self::integrator::{Begun, Integrator, Shading, ShadowTape};
 use crate::accel::{Accel, TraceCounters};
 use crate::geom::sampling::{luminance, pixel_position, Rng};
 use crate::geom::Ray;
@@ -338,16 +338,18 @@ fn render_row<A: Accel>(
                 // together too, and each goes on alone from there.
                 accel.closest_hits(&rays, &mut hits[..n], counters);
                 tape.clear();
-                begun.extend((0..n).map(|k| {
-                    integrator.begin(&rays[k], hits[k], &mut streams[k], &mut tape, counters)
-                }));
+                begun.clear();
+                begun.resize_with(n, || Begun::Done(Vec3::ZERO));
+                for k in 0..n {
+                    let (ray, stream) = (&rays[k], &mut streams[k]);
+                    integrator.begin(ray, hits[k], stream, &mut tape, counters, &mut begun[k]);
+                }
                 blocked.clear();
                 blocked.resize(tape.rays().len(), false);
                 accel.occluded_all(tape.rays(), &mut blocked, counters);
                 for (b, stream) in begun.iter().zip(&mut streams) {
                     values.push(integrator.finish(b, &tape, &blocked, stream, counters));
                 }
-                begun.clear();
             } else {
                 for (ray, stream) in rays.iter().zip(&mut streams) {
                     let hit = accel.closest_hit(ray, counters);
