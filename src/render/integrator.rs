@@ -346,6 +346,9 @@ impl Walk {
 
 /// A path after [`Integrator::begin`]: finished at its first vertex, or
 /// paused there until its direct lighting's shadow rays are answered.
+/// Unboxed on purpose: the renderer keeps a row's worth in one list it
+/// reuses, and a box would be an allocation per pixel.
+#[allow(clippy::large_enum_variant)]
 pub enum Begun<'s> {
     Done(Vec3),
     Paused(Paused<'s>),
@@ -535,7 +538,7 @@ impl<'a, A: Accel> Integrator<'a, A> {
         let (first_term, first_ray) = (tape.terms.len() as u32, tape.rays.len() as u32);
         let mut deferred = Deferred { tape, counters };
         let lit = self.light(&walk, &vertex, &s, rng, &mut deferred);
-        let direct = lit.then(|| Span {
+        let direct = lit.then_some(Span {
             first_term,
             end_term: deferred.tape.terms.len() as u32,
             first_ray,
