@@ -1,0 +1,127 @@
+//! Developer tool: native single rays and packets on one exported ray set,
+//! traced on the calling (main) thread, best of `PASSES` passes. Where
+//! `hybrid bench` interleaves every backend on a pool thread, this runs one
+//! thing where its caller's stack lies, for profiling (`perf record -e
+//! cpu-clock`) and for checking that speed does not depend on stack
+//! placement (docs/design.md, Measuring):
+//!
+//! ```text
+//! hybrid rays export DIR scene.dae
+//! taskset -c 1 cargo run --release --example replay -- DIR camera [single|packets|both] [PASSES]
+//! PAD=$(head -c 200 /dev/zero | tr '\0' x) setarch -R taskset -c 1 target/release/examples/replay DIR camera single
+//! ```
+//!
+//! Prints Mrays/s, hits and box and primitive tests per ray for each mode.
+
+use std::path::Path;
+use std::process::ExitCode;
+use std::time::Instant;
+
+use hybrid::accel::{Accel, Backend, BackendConfig, TraceCounters};
+use hybrid::bench::{file, file_name, scene_of};
+use hybrid::geom::Ray;
+use hybrid::report::measure::Query;
+
+/// Rays per batch query, as the renderer's rows and Embree's C driver take
+/// them.
+const BATCH: usize = 64;
+
+fn main() -> ExitCode {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let (Some(dir), Some(kind)) = (args.first(), args.get(1)) else {
+        eprintln!("usage: replay DIR KIND [single|packets|both] [PASSES]");
+        return ExitCode::from(2);
+    };
+    let mode = args.get(2).map_or("both", String::as_str);
+    let passes: usize = match args.get(3).map(|p| p.parse()) {
+        None => 5,
+        Some(Ok(p)) if p > 0 => p,
+        Some(_) => {
+            eprintln!("replay: PASSES must be a positive whole number");
+            return ExitCode::from(2);
+        }
+    };
+    let dir = Path::new(dir);
+    let loaded = file::read_triangles(&dir.join("triangles.bin")).and_then(|triangles| {
+        file::read_rays(&dir.join(file_name(kind))).map(|rays| (triangles, rays))
+    });
+    let (triangles, (query, flat)) = match loaded {
+        Ok(loaded) => loaded,
+        Err(e) => {
+            eprintln!("replay: {e}");
+            return ExitCode::from(2);
+        }
+    };
+    let scene = scene_of(&triangles, &dir.display().to_string());
+    let native = match BackendConfig::NATIVE.with_threads(1).build(&scene) {
+        Ok(native) => native,
+        Err(e) => {
+            eprintln!("replay: {e}");
+            return ExitCode::from(2);
+        }
+    };
+    let rays: Vec<Ray> = flat.iter().map(Ray::from_flat).collect();
+    for packets in [false, true] {
+        let name = if packets { "packets" } else { "single" };
+        if mode != "both" && mode != name {
+            continue;
+        }
+        let mut best = f64::MAX;
+        let (mut hits, mut counters) = (0, TraceCounters::default());
+        for _ in 0..passes {
+            counters = TraceCounters::default();
+            let start = Instant::now();
+            hits = trace(&native, &rays, query, packets, &mut counters);
+            best = best.min(start.elapsed().as_secs_f64());
+        }
+        let n = rays.len() as f64;
+        println!(
+            "{name:8} {:.2} Mrays/s, {hits} hits, {:.1} box and {:.1} primitive tests per ray",
+            n / best / 1e6,
+            counters.box_tests as f64 / n,
+            counters.prim_tests as f64 / n
+        );
+    }
+    ExitCode::SUCCESS
+}
+
+/// Traces every ray once, alone or through the batch queries; returns how
+/// many hit (or are blocked).
+fn trace(
+    native: &Backend,
+    rays: &[Ray],
+    query: Query,
+    packets: bool,
+    counters: &mut TraceCounters,
+) -> usize {
+    let mut hits = 0;
+    for batch in rays.chunks(BATCH) {
+        hits += match query {
+            Query::Closest => {
+                let mut out = [None; BATCH];
+                let out = &mut out[..batch.len()];
+                if packets {
+                    native.closest_hits(batch, out, counters);
+                } else {
+                    for (ray, answer) in batch.iter().zip(out.iter_mut()) {
+                        *answer = native.closest_hit(ray, counters);
+                    }
+                }
+                out.iter().filter(|h| h.is_some()).count()
+            }
+            Query::Occluded => {
+                let mut out = [false; BATCH];
+                let out = &mut out[..batch.len()];
+                if packets {
+                    native.occluded_all(batch, out, counters);
+                } else {
+                    for (ray, answer) in batch.iter().zip(out.iter_mut()) {
+                        *answer = native.occluded(ray, counters);
+                    }
+                }
+                out.iter().filter(|&&b| b).count()
+            }
+        };
+    }
+    hits
+}
