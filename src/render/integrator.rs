@@ -537,7 +537,7 @@ impl<'a, A: Accel> Integrator<'a, A> {
         // Tapes hold one row's paths: far fewer than 2^32 terms.
         let (first_term, first_ray) = (tape.terms.len() as u32, tape.rays.len() as u32);
         let mut deferred = Deferred { tape, counters };
-        let lit = self.light(&walk, &vertex, &s, rng, &mut deferred);
+        let lit = self.light(walk.depth, &vertex, &s, rng, &mut deferred);
         let direct = lit.then_some(Span {
             first_term,
             end_term: deferred.tape.terms.len() as u32,
@@ -600,7 +600,7 @@ impl<'a, A: Accel> Integrator<'a, A> {
                 counters: &mut *counters,
                 sum: DirectSum::default(),
             };
-            if self.light(&walk, &vertex, s, rng, &mut now) {
+            if self.light(walk.depth, &vertex, s, rng, &mut now) {
                 walk.total += walk.beta * now.sum.sum;
             }
             if !self.leave(&mut walk, &vertex, s, rng) {
@@ -691,14 +691,15 @@ impl<'a, A: Accel> Integrator<'a, A> {
         })
     }
 
-    /// Direct lighting at `vertex` into `sink`, if the vertex takes any
-    /// (it is not specular, and its bounce is shown). The light stream is
+    /// Direct lighting at `vertex`, reached after `depth` bounces, into
+    /// `sink`, if the vertex takes any (it is not specular, and its bounce
+    /// is shown). The light stream is
     /// split off the path's at every vertex that is not specular, used or
     /// not, so the path's own random numbers do not depend on it.
     #[inline(always)]
     fn light(
         &self,
-        walk: &Walk,
+        depth: u32,
         vertex: &Vertex,
         s: &PathSettings,
         rng: &mut Rng,
@@ -708,7 +709,7 @@ impl<'a, A: Accel> Integrator<'a, A> {
             return false;
         }
         let mut light_rng = rng.split();
-        if !s.counts(walk.depth + 1) {
+        if !s.counts(depth + 1) {
             return false;
         }
         self.direct(vertex, s, &mut light_rng, sink);

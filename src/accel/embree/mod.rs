@@ -368,8 +368,8 @@ impl<V: Version> Accel for EmbreeAccel<'_, V> {
                 .scene
                 // No coherent hint: the renderer's shadow rays leave from
                 // a row's hits, each to its own light sample (with the
-                // hint Embree 3's frame on maxplanck ran 10% slower with
-                // packets than without, 4.5% without it).
+                // hint Embree 3's frame on maxplanck ran 1.149x as long
+                // with packets as without, 1.057x without it).
                 .trace_batched(mode, 0, &flat[..n], true, answers);
             if traced.is_none() {
                 for (ray, answer) in rays.iter().zip(out) {
