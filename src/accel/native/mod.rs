@@ -84,6 +84,21 @@ impl NativeOptions {
             n => n,
         }
     }
+
+    /// What the builder charges a binary split over `primitives`, in leaf
+    /// block tests: [`build::SPLIT_COST`], or for a [`LARGE_TREE`] the
+    /// binary SAH's whole node test ([`build::TRAVERSAL_COST`]). There a
+    /// node visit often misses the cache and the fuller leaves pay (see
+    /// [`Self::leaf_cap`]); with the quarter, leaves of five to eight
+    /// nearly always split in two and the 1.31 M-triangle mesh traced
+    /// 9-16% fewer incoherent, shadow and bounce rays per second.
+    pub fn split_cost(&self, primitives: usize) -> f32 {
+        if primitives >= LARGE_TREE {
+            build::TRAVERSAL_COST
+        } else {
+            build::SPLIT_COST
+        }
+    }
 }
 
 /// Trees over at least this many primitives get leaves of up to two
@@ -149,11 +164,12 @@ pub struct NativeBvh {
 /// is logarithmic.
 fn build_bounded(boxes: &[Bounds], options: &NativeOptions) -> BuiltTree {
     let max_leaf = options.leaf_cap(boxes.len());
-    let tree = build::build(boxes, max_leaf, options.method);
+    let split_cost = options.split_cost(boxes.len());
+    let tree = build::build(boxes, max_leaf, split_cost, options.method);
     if tree.shape.depth <= MAX_DEPTH {
         return tree;
     }
-    build::build(boxes, max_leaf, BuildMethod::Median)
+    build::build(boxes, max_leaf, split_cost, BuildMethod::Median)
 }
 
 /// The built nodes as a [`Tree`]; the builder's trees always pass, so an

@@ -22,22 +22,54 @@ pub(super) fn find_split(refs: &[PrimRef], rec: &Record, settings: &Settings) ->
     }
     match settings.method {
         BuildMethod::Median => (n > settings.max_leaf).then_some(Split::Median { axis: widest }),
-        // One block holds the whole range and no split can cost less: the
-        // inner node alone costs as much as the leaf (TRAVERSAL_COST = one
-        // block test). Near the leaves this skips most binning passes.
-        BuildMethod::Sah if n <= LEAF_BLOCK && n <= settings.max_leaf => None,
+        // One block holds the whole range: every way to halve it is tried
+        // (at most seven), cheaper than binning and exact.
+        BuildMethod::Sah if n <= LEAF_BLOCK && n <= settings.max_leaf => {
+            small_split(refs, rec, settings.split_cost)
+        }
         BuildMethod::Sah => {
             let best = binned_sah(refs, rec);
             let leaf = rec.geom.half_area() * leaf_cost(n);
             match best {
                 Some((cost, split)) => {
-                    let split_cost = rec.geom.half_area() * TRAVERSAL_COST + cost;
+                    let split_cost = rec.geom.half_area() * settings.split_cost + cost;
                     (n > settings.max_leaf || split_cost < leaf).then_some(split)
                 }
                 None => (n > settings.max_leaf).then_some(Split::Half),
             }
         }
     }
+}
+
+/// The split of a range of at most [`LEAF_BLOCK`] primitives (one block as
+/// a leaf) into two leaves, if it costs less than the leaf: both sides are
+/// one block each, so only their boxes' areas decide.
+fn small_split(refs: &[PrimRef], rec: &Record, split_cost: f32) -> Option<Split> {
+    let n = refs.len();
+    debug_assert!((2..=LEAF_BLOCK).contains(&n));
+    if split_cost >= TRAVERSAL_COST {
+        // Two blocks and a split never cost less than one block.
+        return None;
+    }
+    let area = rec.geom.half_area();
+    let mut best = (area * (1.0 - split_cost), None);
+    // Reference 0 stays right, so each division is tried once.
+    for left in 1..(1u8 << (n - 1)) {
+        let left = left << 1;
+        let (mut l, mut r) = (Aabb::EMPTY, Aabb::EMPTY);
+        for (i, p) in refs.iter().enumerate() {
+            if left >> i & 1 != 0 {
+                l.grow(&p.aabb());
+            } else {
+                r.grow(&p.aabb());
+            }
+        }
+        let cost = l.half_area() + r.half_area();
+        if cost < best.0 {
+            best = (cost, Some(left));
+        }
+    }
+    best.1.map(|left| Split::Subset { left })
 }
 
 /// `2^23`: adding it to a float in `[0, 2^22)` leaves the nearest integer
@@ -258,6 +290,21 @@ pub(super) fn apply_split(refs: &mut [PrimRef], rec: &Record) -> (Record, Record
         }
     }
     let mid = match rec.split {
+        Some(Split::Subset { left }) => {
+            // At most four references: a stable partition by the mask.
+            let mut order = [refs[0]; LEAF_BLOCK];
+            let mut k = 0;
+            for side in [true, false] {
+                for (i, p) in refs.iter().enumerate() {
+                    if (left >> i & 1 != 0) == side {
+                        order[k] = *p;
+                        k += 1;
+                    }
+                }
+            }
+            refs.copy_from_slice(&order[..n]);
+            left.count_ones() as usize
+        }
         Some(Split::Median { axis }) => {
             let mid = n / 2;
             refs.select_nth_unstable_by(mid, |a, b| {
