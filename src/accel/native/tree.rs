@@ -26,6 +26,8 @@
 //! use hybrid::accel::native::traverse;
 //! ```
 
+use glam::Vec3A;
+
 use super::node::{is_leaf, Node8, EMPTY, WIDTH};
 
 /// Deepest tree (in wide levels) the kernels' fixed stacks hold; deeper
@@ -37,6 +39,8 @@ pub const MAX_DEPTH: usize = 64;
 #[derive(Clone, Debug, Default)]
 pub struct Tree {
     nodes: Vec<Node8>,
+    /// The root's box, the union of its children's: `[lo, hi]`.
+    bounds: [Vec3A; 2],
 }
 
 /// Why a node list is not a [`Tree`].
@@ -94,7 +98,22 @@ impl Tree {
                 }
             }
         }
-        Ok(Tree { nodes })
+        let mut bounds = [Vec3A::INFINITY, Vec3A::NEG_INFINITY];
+        if let Some(root) = nodes.first() {
+            for slot in 0..WIDTH {
+                for axis in 0..3 {
+                    bounds[0][axis] = bounds[0][axis].min(root.planes[2 * axis][slot]);
+                    bounds[1][axis] = bounds[1][axis].max(root.planes[2 * axis + 1][slot]);
+                }
+            }
+        }
+        Ok(Tree { nodes, bounds })
+    }
+
+    /// The box around everything in the tree.
+    #[inline(always)]
+    pub fn bounds(&self) -> [Vec3A; 2] {
+        self.bounds
     }
 
     pub fn nodes(&self) -> &[Node8] {

@@ -168,6 +168,20 @@ impl BoxRay {
         (self.fast[0].abs().cmplt(infinity) & self.fast[2].abs().cmplt(infinity)).all()
     }
 
+    /// Whether the ray enters the box `[lo, hi]` within `t_max`, by the
+    /// robust test (conservative: never false for a box it touches).
+    #[inline(always)]
+    pub fn enters(&self, [lo, hi]: [Vec3A; 2], t_max: f32) -> bool {
+        if (self.origin.cmpge(lo) & self.origin.cmple(hi)).all() {
+            return true;
+        }
+        let a = (lo - self.origin) * self.inv_dir;
+        let b = (hi - self.origin) * self.inv_dir;
+        let near = a.min(b).max_element().max(self.t_min);
+        let far = (a.max(b).min_element() * BOX_FAR_SCALE).min(t_max);
+        near <= far
+    }
+
     /// Octant index of the child orders: bit set for a positive direction.
     #[inline(always)]
     pub(super) fn octant(&self) -> u32 {
@@ -217,7 +231,7 @@ pub fn closest<L: Leaves>(
     work: &mut Work,
     start: ChildRef,
 ) -> bool {
-    if tree.is_empty() {
+    if tree.is_empty() || (start == 0 && !ray.enters(tree.bounds(), *t_max)) {
         return false;
     }
     #[cfg(target_arch = "x86_64")]
@@ -249,7 +263,7 @@ pub fn any<L: Leaves>(
     work: &mut Work,
     start: ChildRef,
 ) -> bool {
-    if tree.is_empty() {
+    if tree.is_empty() || (start == 0 && !ray.enters(tree.bounds(), t_max)) {
         return false;
     }
     #[cfg(target_arch = "x86_64")]
@@ -310,7 +324,7 @@ mod tests {
     }
 
     #[test]
-    fn the_fast_box_test_never_culls_a_box_the_ray_touches() {
+    fn the_box_tests_never_cull_a_box_the_ray_touches() {
         let mut rng = Rng::new(11, 4);
         let mut touched = 0;
         for i in 0..400_000 {
@@ -354,6 +368,11 @@ mod tests {
                 assert!(
                     fast_enters(&ray, lo, hi, t_max),
                     "culled: o {o} d {d} box {lo}..{hi} t_max {t_max}"
+                );
+                // The root box test before a traversal, too.
+                assert!(
+                    ray.enters([lo, hi], t_max),
+                    "root test culled: o {o} d {d} box {lo}..{hi} t_max {t_max}"
                 );
             }
         }
