@@ -16,7 +16,6 @@ struct Lanes {
     far_c: [__m256; 3],
     t_min: __m256,
     rows: [(usize, usize); 3],
-    octant: u32,
     /// Shift that selects the octant's 3-bit field of `Node8::order`.
     shift: __m128i,
 }
@@ -37,7 +36,6 @@ fn lanes<const ROBUST: bool>(ray: &BoxRay) -> Lanes {
         far_c: splat(far_c),
         t_min: _mm256_set1_ps(ray.t_min),
         rows: [ray.rows(0), ray.rows(1), ray.rows(2)],
-        octant: ray.octant(),
         shift: _mm_cvtsi32_si128(3 * ray.octant() as i32),
     }
 }
@@ -119,7 +117,11 @@ unsafe fn push(
     let d = _mm256_permutevar8x32_ps(near, order);
     _mm256_storeu_ps(dists.add(*top), _mm256_permutevar8x32_ps(d, pack));
     *top += sorted.count_ones() as usize - 1;
-    node.child[node.ordered(l.octant, nearest as usize)]
+    // The nearest from the permuted references (one shuffle), not from
+    // `order` and `child` (two dependent loads on the way to the next
+    // node).
+    let pick = _mm256_permutevar8x32_epi32(children, _mm256_set1_epi32(nearest as i32));
+    _mm256_cvtsi256_si32(pick) as ChildRef
 }
 
 /// Any-hit's push: no order to compute, the hit children in slot
