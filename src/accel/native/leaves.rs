@@ -176,20 +176,22 @@ unsafe fn lanes_hit<W: Width>(
     let qz = sub(mul(sx, e1y), mul(e1x, sy));
     let u_det = add(add(mul(sx, px), mul(sy, py)), mul(sz, pz));
     let v_det = add(add(mul(dx, qx), mul(dy, qy)), mul(dz, qz));
+    let t_det = add(add(mul(e2x, qx), mul(e2y, qy)), mul(e2z, qz));
     let (u_abs, v_abs) = (W::xor(u_det, sign), W::xor(v_det, sign));
     let low = mul(abs, W::splat(-PREFILTER_LOW));
     let inside = live
         & W::ge(abs, W::splat(PARALLEL_DETERMINANT))
         & W::ge(u_abs, low)
         & W::ge(v_abs, low)
-        & W::le(add(u_abs, v_abs), mul(abs, W::splat(PREFILTER_HIGH)));
+        & W::le(add(u_abs, v_abs), mul(abs, W::splat(PREFILTER_HIGH)))
+        & W::gt(W::xor(t_det, sign), r.behind);
     let zero = W::splat(0.0);
     if inside == 0 {
         return (0, zero, zero, zero);
     }
     let inv = W::div(W::splat(1.0), det);
     let (u, v) = (mul(u_det, inv), mul(v_det, inv));
-    let t = mul(add(add(mul(e2x, qx), mul(e2y, qy)), mul(e2z, qz)), inv);
+    let t = mul(t_det, inv);
     let valid = inside
         & W::ge(u, W::splat(-EDGE_SLACK))
         & W::ge(v, W::splat(-EDGE_SLACK))

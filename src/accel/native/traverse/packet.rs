@@ -365,6 +365,9 @@ pub struct Lanes<W: Width> {
     pub origin: [W::V; 3],
     pub dir: [W::V; 3],
     pub t_min: W::V,
+    /// Per lane the triangle prefilter's bound on `t * |det|`
+    /// (`triangle::behind` of its `t_min`).
+    pub behind: W::V,
 }
 
 /// Up to `W::N` rays as lanes, with what the kernels need, computed all
@@ -429,7 +432,16 @@ impl<W: Width> PacketRays<W> {
         }
         let lanes = (1u32 << rays.len().min(W::N)) - 1;
         PacketRays {
-            lanes: Lanes { origin, dir, t_min },
+            lanes: Lanes {
+                origin,
+                dir,
+                t_min,
+                behind: W::select(
+                    W::ge(t_min, W::splat(0.0)),
+                    W::splat(f32::NEG_INFINITY),
+                    W::splat(0.0),
+                ),
+            },
             inv,
             fast,
             t_max,
