@@ -29,6 +29,7 @@
 use glam::Vec3A;
 
 use super::node::{is_leaf, Node8, EMPTY, WIDTH};
+use crate::geom::Bounds;
 
 /// Deepest tree (in wide levels) the kernels' fixed stacks hold; deeper
 /// SAH trees are rebuilt by median splits (see `NativeBvh::build`).
@@ -98,15 +99,10 @@ impl Tree {
                 }
             }
         }
-        let mut bounds = [Vec3A::INFINITY, Vec3A::NEG_INFINITY];
-        if let Some(root) = nodes.first() {
-            for slot in 0..WIDTH {
-                for axis in 0..3 {
-                    bounds[0][axis] = bounds[0][axis].min(root.planes[2 * axis][slot]);
-                    bounds[1][axis] = bounds[1][axis].max(root.planes[2 * axis + 1][slot]);
-                }
-            }
-        }
+        let root = nodes.first().map_or(Bounds::EMPTY, |root| {
+            root.children().fold(Bounds::EMPTY, |b, (_, c)| b.union(c))
+        });
+        let bounds = [Vec3A::from(root.min), Vec3A::from(root.max)];
         Ok(Tree { nodes, bounds })
     }
 
