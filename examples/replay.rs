@@ -11,20 +11,18 @@
 //! PAD=$(head -c 200 /dev/zero | tr '\0' x) setarch -R taskset -c 1 target/release/examples/replay DIR camera single
 //! ```
 //!
-//! Prints Mrays/s, hits and box and primitive tests per ray for each mode.
+//! Prints Mrays/s, hits and box and primitive tests per ray for each mode;
+//! the loop is the report's own (`report::measure::trace_counted`, batch
+//! queries of 256 rays).
 
 use std::path::Path;
 use std::process::ExitCode;
 use std::time::Instant;
 
-use hybrid::accel::{Accel, Backend, BackendConfig, TraceCounters};
+use hybrid::accel::{BackendConfig, TraceCounters};
 use hybrid::bench::{file, file_name, scene_of};
 use hybrid::geom::Ray;
-use hybrid::report::measure::Query;
-
-/// Rays per batch query, as the renderer's rows and Embree's C driver take
-/// them.
-const BATCH: usize = 64;
+use hybrid::report::measure::trace_counted;
 
 fn main() -> ExitCode {
     let args: Vec<String> = std::env::args().skip(1).collect();
@@ -71,7 +69,7 @@ fn main() -> ExitCode {
         for _ in 0..passes {
             counters = TraceCounters::default();
             let start = Instant::now();
-            hits = trace(&native, &rays, query, packets, &mut counters);
+            hits = trace_counted(&native, &rays, query, packets, &mut counters);
             best = best.min(start.elapsed().as_secs_f64());
         }
         let n = rays.len() as f64;
@@ -83,45 +81,4 @@ fn main() -> ExitCode {
         );
     }
     ExitCode::SUCCESS
-}
-
-/// Traces every ray once, alone or through the batch queries; returns how
-/// many hit (or are blocked).
-fn trace(
-    native: &Backend,
-    rays: &[Ray],
-    query: Query,
-    packets: bool,
-    counters: &mut TraceCounters,
-) -> usize {
-    let mut hits = 0;
-    for batch in rays.chunks(BATCH) {
-        hits += match query {
-            Query::Closest => {
-                let mut out = [None; BATCH];
-                let out = &mut out[..batch.len()];
-                if packets {
-                    native.closest_hits(batch, out, counters);
-                } else {
-                    for (ray, answer) in batch.iter().zip(out.iter_mut()) {
-                        *answer = native.closest_hit(ray, counters);
-                    }
-                }
-                out.iter().filter(|h| h.is_some()).count()
-            }
-            Query::Occluded => {
-                let mut out = [false; BATCH];
-                let out = &mut out[..batch.len()];
-                if packets {
-                    native.occluded_all(batch, out, counters);
-                } else {
-                    for (ray, answer) in batch.iter().zip(out.iter_mut()) {
-                        *answer = native.occluded(ray, counters);
-                    }
-                }
-                out.iter().filter(|&&b| b).count()
-            }
-        };
-    }
-    hits
 }

@@ -110,15 +110,8 @@ pub enum Query {
 /// Traces every ray once; returns the number of hits (so the work cannot
 /// be optimized away).
 pub fn trace_all<A: Accel>(accel: &A, rays: &[Ray], query: Query, threads: usize) -> usize {
-    let chunk = |rays: &[Ray]| {
-        let mut counters = TraceCounters::default();
-        rays.iter()
-            .filter(|r| match query {
-                Query::Closest => accel.closest_hit(r, &mut counters).is_some(),
-                Query::Occluded => accel.occluded(r, &mut counters),
-            })
-            .count()
-    };
+    let chunk =
+        |rays: &[Ray]| trace_counted(accel, rays, query, false, &mut TraceCounters::default());
     if threads <= 1 {
         return chunk(rays);
     }
@@ -130,30 +123,55 @@ pub fn trace_all<A: Accel>(accel: &A, rays: &[Ray], query: Query, threads: usize
 }
 
 /// As [`trace_all`], through the backend's batch queries
-/// ([`Accel::closest_hits`], [`Accel::occluded_all`]) 256 rays at a time,
-/// answers into buffers on the stack.
+/// ([`Accel::closest_hits`], [`Accel::occluded_all`]) [`BATCH`] rays at a
+/// time, answers into buffers on the stack.
 pub fn trace_all_batched<A: Accel>(accel: &A, rays: &[Ray], query: Query, threads: usize) -> usize {
-    const BATCH: usize = 256;
-    let chunk = |rays: &[Ray]| {
-        let mut counters = TraceCounters::default();
-        let n = rays.len();
-        match query {
-            Query::Closest => {
-                let mut out = [None; BATCH];
-                accel.closest_hits(rays, &mut out[..n], &mut counters);
-                out[..n].iter().filter(|h| h.is_some()).count()
-            }
-            Query::Occluded => {
-                let mut out = [false; BATCH];
-                accel.occluded_all(rays, &mut out[..n], &mut counters);
-                out[..n].iter().filter(|&&b| b).count()
-            }
-        }
-    };
+    let chunk =
+        |rays: &[Ray]| trace_counted(accel, rays, query, true, &mut TraceCounters::default());
     if threads <= 1 {
-        return rays.chunks(BATCH).map(chunk).sum();
+        return chunk(rays);
     }
     rays.par_chunks(BATCH).with_max_len(4).map(chunk).sum()
+}
+
+/// Rays per call of the batch queries in the batched measurements.
+pub const BATCH: usize = 256;
+
+/// `rays` traced on the calling thread, one query per ray or (`batched`)
+/// through the backend's batch queries [`BATCH`] at a time: how many hit
+/// (or are blocked), the work added to `counters`. The loop every trace
+/// measurement times.
+#[inline]
+pub fn trace_counted<A: Accel>(
+    accel: &A,
+    rays: &[Ray],
+    query: Query,
+    batched: bool,
+    counters: &mut TraceCounters,
+) -> usize {
+    match (batched, query) {
+        (false, Query::Closest) => rays
+            .iter()
+            .filter(|r| accel.closest_hit(r, counters).is_some())
+            .count(),
+        (false, Query::Occluded) => rays.iter().filter(|r| accel.occluded(r, counters)).count(),
+        (true, Query::Closest) => rays
+            .chunks(BATCH)
+            .map(|rays| {
+                let out = &mut [None; BATCH][..rays.len()];
+                accel.closest_hits(rays, out, counters);
+                out.iter().filter(|h| h.is_some()).count()
+            })
+            .sum(),
+        (true, Query::Occluded) => rays
+            .chunks(BATCH)
+            .map(|rays| {
+                let out = &mut [false; BATCH][..rays.len()];
+                accel.occluded_all(rays, out, counters);
+                out.iter().filter(|&&b| b).count()
+            })
+            .sum(),
+    }
 }
 
 /// Million rays per second (median and range over repeats) of `accel` on
