@@ -194,11 +194,20 @@ pub fn mrays<A: Accel>(
 /// so all see the same machine state, where back-to-back blocks of repeats
 /// let drift in clock speed, caches or the other core's load land on one
 /// of them only.
-pub fn time_interleaved<T>(
+pub fn time_interleaved<T>(n: usize, repeats: usize, run: impl FnMut(usize) -> T) -> Vec<Measured> {
+    time_interleaved_samples(n, repeats, run)
+        .into_iter()
+        .map(Measured::from_samples)
+        .collect()
+}
+
+/// [`time_interleaved`]'s seconds, every repeat of every run in round
+/// order: `samples[i][r]` is run `i` in round `r`.
+pub fn time_interleaved_samples<T>(
     n: usize,
     repeats: usize,
     mut run: impl FnMut(usize) -> T,
-) -> Vec<Measured> {
+) -> Vec<Vec<f64>> {
     for i in 0..n {
         std::hint::black_box(run(i));
     }
@@ -211,7 +220,16 @@ pub fn time_interleaved<T>(
             seconds[i].push(start.elapsed().as_secs_f64());
         }
     }
-    seconds.into_iter().map(Measured::from_samples).collect()
+    seconds
+}
+
+/// `a / b` round by round for two runs timed in the same rounds: the
+/// median of those ratios and its 95% interval (`(lo, median, hi)`,
+/// [`median_interval`]). A round's two runs see the same machine, so
+/// the pairs cancel drift that a ratio of two medians keeps.
+pub fn paired_ratio(a: &[f64], b: &[f64]) -> (f64, f64, f64) {
+    let ratios: Vec<f64> = a.iter().zip(b).map(|(a, b)| a / b).collect();
+    median_interval(&ratios)
 }
 
 /// The CPU time this thread has used, in seconds
@@ -314,8 +332,7 @@ pub fn time_settled(n: usize, settle: Settle, mut run: impl FnMut(usize)) -> Set
         }
         out.widest = (1..n)
             .map(|j| {
-                let ratios: Vec<f64> = cpu[0].iter().zip(&cpu[j]).map(|(a, b)| a / b).collect();
-                let (lo, median, hi) = median_interval(&ratios);
+                let (lo, median, hi) = paired_ratio(&cpu[0], &cpu[j]);
                 ((hi - median) / median).max((median - lo) / median)
             })
             .fold(0.0, f64::max);
@@ -445,6 +462,35 @@ mod tests {
         let (lo2, m2, hi2) = median_interval(&many);
         assert_eq!(m2, 201.0);
         assert!((hi2 - lo2) / m2 < (hi - lo) / m, "{lo2}..{hi2} of {m2}");
+    }
+
+    #[test]
+    fn a_paired_ratio_is_taken_round_by_round() {
+        // The machine slowed in rounds 2 and 3 for both runs; `a` is 0.9 of
+        // `b` in every round.
+        let b = [1.0, 1.0, 2.0, 2.0, 1.0];
+        let (lo, m, hi) = paired_ratio(&b.map(|x| 0.9 * x), &b);
+        assert!(
+            [lo, m, hi].iter().all(|r| (r - 0.9).abs() < 1e-12),
+            "{lo} {m} {hi}"
+        );
+        // The same times out of step with `b`'s rounds: the same medians,
+        // but rounds whose ratios spread.
+        let (lo, m, hi) = paired_ratio(&[0.9, 1.8, 1.8, 0.9, 0.9], &b);
+        assert!(hi - lo > 1.0 && m == 0.9, "{lo} {m} {hi}");
+    }
+
+    #[test]
+    fn the_interleaved_samples_keep_every_round_of_every_run() {
+        let mut calls = Vec::new();
+        let samples = time_interleaved_samples(3, 4, |i| calls.push(i));
+        assert_eq!(samples.len(), 3);
+        assert!(samples
+            .iter()
+            .all(|s| s.len() == 4 && s.iter().all(|&t| t >= 0.0)));
+        // One warm-up each, then rounds forwards and backwards: a run's
+        // neighbour is the same in every round.
+        assert_eq!(calls, [0, 1, 2, 0, 1, 2, 2, 1, 0, 0, 1, 2, 2, 1, 0]);
     }
 
     #[test]

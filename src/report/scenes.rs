@@ -10,8 +10,9 @@ use serde_json::{json, Value};
 use super::budget::Budget;
 use super::budget::ALL_BUILDS_UP_TO;
 use super::measure::{
-    mrays_interleaved, on_threads, process_cpu_seconds, ray_sets, time_interleaved, time_repeats,
-    time_repeats_by, trace_all, trace_all_batched, Measured,
+    mrays_interleaved, on_threads, paired_ratio, process_cpu_seconds, ray_sets, time_interleaved,
+    time_interleaved_samples, time_repeats, time_repeats_by, trace_all, trace_all_batched,
+    Measured,
 };
 use super::paired::{batched_table, compare, compare_batched, PairedRow};
 use super::table::{Cell, Flag, Table};
@@ -156,6 +157,9 @@ pub struct SceneResult {
     pub frame: (u32, u32, u32),
     pub frame_seconds: Vec<Measured>,
     pub frame_seconds_alone: Vec<Measured>,
+    /// Per compared backend, the frame with packets over without, round
+    /// by round ([`paired_ratio`]): `(lo, median, hi)`.
+    pub packet_frame: Vec<(f64, f64, f64)>,
 }
 
 impl SceneResult {
@@ -181,9 +185,9 @@ impl SceneResult {
     }
 
     /// Backend `i`'s frame time with packets over without (below 1:
-    /// packets are faster).
+    /// packets are faster), the median of the paired rounds.
     pub fn packet_frame_ratio(&self, i: usize) -> f64 {
-        self.frame_seconds[i].median / self.frame_seconds_alone[i].median
+        self.packet_frame[i].1
     }
 }
 
@@ -334,10 +338,17 @@ pub fn measure(
         packets: false,
         ..settings.clone()
     };
-    let frames = time_interleaved(2 * backends.len(), budget.frame_repeats, |i| {
+    // A backend's two frames are neighbours in every round (forwards and
+    // backwards alike), so their ratio is taken round by round.
+    let samples = time_interleaved_samples(2 * backends.len(), budget.frame_repeats, |i| {
         let settings = if i % 2 == 0 { &settings } else { &alone };
         render(scene, &backends[i / 2], settings, &Silent)
     });
+    let packet_frame = samples
+        .chunks(2)
+        .map(|pair| paired_ratio(&pair[0], &pair[1]))
+        .collect();
+    let frames: Vec<Measured> = samples.into_iter().map(Measured::from_samples).collect();
     let frame_seconds = frames.iter().step_by(2).copied().collect();
     let frame_seconds_alone = frames.iter().skip(1).step_by(2).copied().collect();
     Ok(SceneResult {
@@ -356,6 +367,7 @@ pub fn measure(
         frame: (w, h, spp),
         frame_seconds,
         frame_seconds_alone,
+        packet_frame,
     })
 }
 
@@ -561,13 +573,16 @@ pub fn packets_section(results: &[SceneResult]) -> (String, Value) {
             r.compared
                 .iter()
                 .enumerate()
-                .map(|(i, c)| format!("{} {:.3}x", c.label(), r.packet_frame_ratio(i)))
+                .map(|(i, c)| {
+                    let (lo, median, hi) = r.packet_frame[i];
+                    format!("{} {median:.3}x ({lo:.3}–{hi:.3})", c.label())
+                })
                 .collect::<Vec<_>>()
                 .join(", ")
         ));
     }
     let md = format!(
-        "## Packets\n\nCamera rays and the light rays of the camera's first hits, traced in batches: native in packets of sixteen rays of one octant with AVX-512, else eight (an interval test of each node's children against the packet, then the single-ray slab test lane by lane, leaves tested all the packet's rays per triangle, a child entered by one ray handed to the single-ray kernel); Embree in each batched mode its version has, called from C (`rtcIntersect8`/`rtcIntersect16`, `rtcOccluded8`/`rtcOccluded16`, Embree 3's `rtcIntersect1M`/`rtcOccluded1M` stream), the coherent hint on these rays. One thread: Mrays/s by CPU time, interleaved rounds as the headline's; all threads: wall clock, each backend's batch query and single rays. Targets (issue 28): native packets at least 1.2x Embree's best mode on camera rays and 1.0x on light rays.\n\n{}\nFrame time with camera rays and the first hits' shadow rays in packets over without (below 1: packets are faster; the per-scene sections' frame, same image either way): {}.\n\n",
+        "## Packets\n\nCamera rays and the light rays of the camera's first hits, traced in batches: native in packets of sixteen rays of one octant with AVX-512, else eight (an interval test of each node's children against the packet, then the single-ray slab test lane by lane, leaves tested all the packet's rays per triangle, a child entered by one ray handed to the single-ray kernel); Embree in each batched mode its version has, called from C (`rtcIntersect8`/`rtcIntersect16`, `rtcOccluded8`/`rtcOccluded16`, Embree 3's `rtcIntersect1M`/`rtcOccluded1M` stream), the coherent hint on these rays. One thread: Mrays/s by CPU time, interleaved rounds as the headline's; all threads: wall clock, each backend's batch query and single rays. Targets (issue 28): native packets at least 1.2x Embree's best mode on camera rays and 1.0x on light rays.\n\n{}\nFrame time with camera rays and the first hits' shadow rays in packets over without (below 1: packets are faster; the per-scene sections' frame, same image either way), the median of the ratios of frames rendered one after the other in each of the interleaved rounds, with its 95% interval in parentheses: {}.\n\n",
         table.markdown(),
         frames.join("; ")
     );
@@ -642,6 +657,14 @@ pub fn section(results: &[SceneResult]) -> (String, Value) {
                 .iter()
                 .zip(&r.frame_seconds_alone)
                 .map(|(c, t)| (c.label(), json!(t.median)))
+                .collect::<serde_json::Map<String, Value>>(),
+            "frame_with_packets_over_without": r
+                .compared
+                .iter()
+                .zip(&r.packet_frame)
+                .map(|(c, (lo, median, hi))| {
+                    (c.label(), json!({ "median": median, "lo": lo, "hi": hi }))
+                })
                 .collect::<serde_json::Map<String, Value>>(),
         }));
     }
