@@ -183,12 +183,6 @@ impl SceneResult {
     pub fn frame_pair(&self, j: usize) -> [Measured; 2] {
         [0, j].map(|i| self.frame_seconds[i])
     }
-
-    /// Backend `i`'s frame time with packets over without (below 1:
-    /// packets are faster), the median of the paired rounds.
-    pub fn packet_frame_ratio(&self, i: usize) -> f64 {
-        self.packet_frame[i].1
-    }
 }
 
 /// Times `config`'s build on `threads` threads (native: the rayon pool;
