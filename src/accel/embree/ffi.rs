@@ -442,7 +442,7 @@ impl<A: Api> Scene<'_, A> {
     pub fn trace_batched(
         &self,
         mode: BatchMode,
-        hint: u32,
+        coherent: bool,
         rays: &[FlatRay],
         occluded: bool,
         answers: Answers,
@@ -451,7 +451,7 @@ impl<A: Api> Scene<'_, A> {
             self.api.c_functions(),
             self.raw,
             mode,
-            hint,
+            coherent,
             rays,
             occluded,
             answers,

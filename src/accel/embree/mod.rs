@@ -38,7 +38,7 @@ use crate::choice::Choice;
 use self::ffi::{Api, Device, Scene as EmbreeScene, SceneBuilder};
 use self::library::{RawHit, INVALID_GEOMETRY_ID};
 pub use self::plain_c::BatchMode;
-use self::plain_c::{Answers, CHit, COHERENT};
+use self::plain_c::{Answers, CHit};
 pub use self::sys3::Embree3;
 pub use self::sys4::Embree4;
 use super::{Accel, AccelError, AccelStats, TraceCounters};
@@ -326,7 +326,7 @@ impl<V: Version> Accel for EmbreeAccel<'_, V> {
             let answers = Answers::Closest(&mut hits[..n]);
             let traced = self
                 .scene
-                .trace_batched(mode, COHERENT, &flat[..n], false, answers);
+                .trace_batched(mode, true, &flat[..n], false, answers);
             if traced.is_none() {
                 // The device reported the width but the call was refused:
                 // these rays alone (already counted).
@@ -370,7 +370,7 @@ impl<V: Version> Accel for EmbreeAccel<'_, V> {
                 // a row's hits, each to its own light sample (with the
                 // hint Embree 3's frame on maxplanck ran 1.149x as long
                 // with packets as without, 1.057x without it).
-                .trace_batched(mode, 0, &flat[..n], true, answers);
+                .trace_batched(mode, false, &flat[..n], true, answers);
             if traced.is_none() {
                 for (ray, answer) in rays.iter().zip(out) {
                     *answer = self.occluded(ray, &mut TraceCounters::default());
@@ -394,10 +394,9 @@ impl<V: Version> Accel for EmbreeAccel<'_, V> {
         mode: BatchMode,
         coherent: bool,
     ) -> Option<usize> {
-        let hint = if coherent { COHERENT } else { 0 };
         let traced = self
             .scene
-            .trace_batched(mode, hint, rays, occluded, Answers::Count)?;
+            .trace_batched(mode, coherent, rays, occluded, Answers::Count)?;
         Some(traced.0)
     }
 

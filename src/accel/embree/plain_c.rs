@@ -106,21 +106,26 @@ extern "C" {
     ) -> usize;
 }
 
-/// The query hint both versions share the value of: Embree 3's
-/// `RTC_INTERSECT_CONTEXT_FLAG_COHERENT`, Embree 4's
-/// `RTC_RAY_QUERY_FLAG_COHERENT`.
-pub const COHERENT: u32 = 1;
+/// The coherent-rays hint as Embree 3 spells it: the context flag
+/// `RTC_INTERSECT_CONTEXT_FLAG_COHERENT`, bit 0 (`sys3.rs` checks it
+/// against the header).
+pub const COHERENT3: u32 = 1;
+/// The same hint as Embree 4 spells it: the query flag
+/// `RTC_RAY_QUERY_FLAG_COHERENT` of `RTCIntersectArguments`, bit 16
+/// (`sys4.rs` checks it). Bit 0 means nothing there: given Embree 3's
+/// value, Embree 4 took its incoherent path.
+pub const COHERENT4: u32 = 1 << 16;
 
 /// Traces `rays` in `mode` on the committed `scene` of the version whose
-/// functions are `c`, with the query `hint` (0 or [`COHERENT`]): the hit
-/// (or blocked) count and the sum of hit primitive ids, or `None` when
-/// this version lacks the mode. Answers go where `answers` says; its
-/// slice must be as long as `rays`, and match `occluded`.
+/// functions are `c`, with the coherent hint or without: the hit (or
+/// blocked) count and the sum of hit primitive ids, or `None` when this
+/// version lacks the mode. Answers go where `answers` says; its slice
+/// must be as long as `rays`, and match `occluded`.
 pub(super) fn trace_batched(
     c: CFunctions,
     scene: Handle,
     mode: BatchMode,
-    hint: u32,
+    coherent: bool,
     rays: &[FlatRay],
     occluded: bool,
     answers: Answers,
@@ -146,10 +151,11 @@ pub(super) fn trace_batched(
     if f.is_null() {
         return None;
     }
-    let version = match c.version {
-        EmbreeMajor::Three => 3,
-        EmbreeMajor::Four => 4,
+    let (version, coherent_flag) = match c.version {
+        EmbreeMajor::Three => (3, COHERENT3),
+        EmbreeMajor::Four => (4, COHERENT4),
     };
+    let hint = if coherent { coherent_flag } else { 0 };
     let mut checksum = 0u64;
     let (p, n) = (rays.as_ptr().cast::<f32>(), rays.len());
     // SAFETY: `f` is this version's function for the mode (non-null), the

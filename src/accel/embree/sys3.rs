@@ -31,6 +31,8 @@ const _: () = {
     assert!(value::FORMAT_FLOAT4 == raw::RTC_FORMAT_FLOAT4);
     assert!(value::SCENE_FLAG_NONE == raw::RTC_SCENE_FLAG_NONE);
     assert!(value::SCENE_FLAG_ROBUST == raw::RTC_SCENE_FLAG_ROBUST);
+    // The C driver's coherent hint for this version.
+    assert!(super::plain_c::COHERENT3 == raw::RTC_INTERSECT_CONTEXT_FLAG_COHERENT);
     assert!(value::PROPERTY_VERSION_MAJOR == raw::RTC_DEVICE_PROPERTY_VERSION_MAJOR);
     assert!(value::PROPERTY_VERSION_MINOR == raw::RTC_DEVICE_PROPERTY_VERSION_MINOR);
     assert!(value::PROPERTY_VERSION_PATCH == raw::RTC_DEVICE_PROPERTY_VERSION_PATCH);

@@ -42,6 +42,8 @@ const _: () = {
             == e4::RTCDeviceProperty::NATIVE_RAY16_SUPPORTED as u32
     );
     assert!(e4::RTCBuildQuality::LOW as u32 == 0 && e4::RTCBuildQuality::HIGH as u32 == 2);
+    // The C driver's coherent hint for this version.
+    assert!(super::plain_c::COHERENT4 == e4::RTCRayQueryFlags::COHERENT.0);
     // The 4.2 layouts the tails below extend.
     assert!(std::mem::size_of::<e4::RTCRayHit>() == 80);
     assert!(std::mem::size_of::<e4::RTCIntersectArguments>() == 32);
