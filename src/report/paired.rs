@@ -6,7 +6,8 @@
 //! ([`Settle`]). `hybrid bench` and the report's trace tables both use it.
 
 use super::measure::{
-    time_settled, trace_all, trace_all_batched, Measured, Query, Settle, Settled,
+    thread_cpu_seconds, time_settled, trace_all, trace_all_batched, Measured, Query, Settle,
+    Settled,
 };
 use super::table::{Cell, Flag, Table};
 use crate::accel::{Accel, BatchMode};
@@ -21,9 +22,23 @@ pub struct Run {
     /// Index of the backend in the list given to [`compare`].
     pub backend: usize,
     pub plain_c: bool,
+    /// For a library's batched mode, whether it ran with the coherent hint
+    /// ([`faster_hint`]).
+    pub coherent: Option<bool>,
     /// Mrays/s by thread CPU time, and by wall time.
     pub cpu: Measured,
     pub wall: Measured,
+}
+
+impl Run {
+    /// The run's name, with the hint of a batched mode.
+    pub fn describe(&self) -> String {
+        match self.coherent {
+            Some(true) => format!("{}, coherent hint", self.name),
+            Some(false) => format!("{}, no hint", self.name),
+            None => self.name.clone(),
+        }
+    }
 }
 
 /// One replayed ray set.
@@ -64,17 +79,17 @@ pub fn compare<A: Accel>(
     let rays: Vec<Ray> = flat.iter().map(Ray::from_flat).collect();
     let occluded = query == Query::Occluded;
     // (name, backend index, as a C caller)
-    let mut runs: Vec<(String, usize, bool)> = Vec::new();
+    let mut runs: Vec<(String, usize, bool, Option<bool>)> = Vec::new();
     for (b, (label, accel)) in backends.iter().enumerate() {
         if accel.trace_as_c_caller(&[], occluded).is_some() {
-            runs.push((format!("{label} plain C"), b, true));
+            runs.push((format!("{label} plain C"), b, true, None));
         }
-        runs.push((label.clone(), b, false));
+        runs.push((label.clone(), b, false, None));
     }
     // Run 0 is native's own; its answers are the row's hit count.
     let mut hits = 0;
     let timed = time_settled(runs.len(), settle, |i| {
-        let (_, b, c) = runs[i];
+        let (_, b, c, _) = runs[i];
         let accel = backends[b].1;
         let n = if c {
             accel.trace_as_c_caller(flat, occluded).unwrap_or(0)
@@ -95,7 +110,7 @@ fn row(
     kind: &str,
     rays: usize,
     hits: usize,
-    runs: Vec<(String, usize, bool)>,
+    runs: Vec<(String, usize, bool, Option<bool>)>,
     timed: &Settled,
 ) -> PairedRow {
     let rate = |m: &Measured| Measured::per_second_millions(rays, m);
@@ -106,10 +121,11 @@ fn row(
         runs: runs
             .into_iter()
             .enumerate()
-            .map(|(i, (name, backend, plain_c))| Run {
+            .map(|(i, (name, backend, plain_c, coherent))| Run {
                 name,
                 backend,
                 plain_c,
+                coherent,
                 cpu: rate(&timed.cpu[i]),
                 wall: rate(&timed.wall[i]),
             })
@@ -177,18 +193,39 @@ pub fn table(rows: &[PairedRow]) -> Table {
     table
 }
 
-/// Whether Embree's batched modes get the coherent hint on rays of `kind`:
-/// the camera rays and the light rays of the camera's first hits.
-pub fn coherent_kind(kind: &str) -> bool {
-    kind.starts_with("camera") || kind == "light"
+/// Whether a library's batched `mode` traces `flat` faster with the
+/// coherent hint than without: each way three times, alternating, the
+/// first as a warm-up, the faster of the other two by the thread's CPU
+/// time. Embree asks for the hint on coherent rays, but which rays gain
+/// depends on the scene: the light rays of a tile's first hits ran faster
+/// with it on maxplanck (Embree 3's packets of 16, one thread: 10.5
+/// against 5.4 Mrays/s) and slower on CBbunny (19.3 against 24.6), so
+/// Embree at its best is whichever of the two was faster.
+pub fn faster_hint<A: Accel + ?Sized>(
+    accel: &A,
+    flat: &[FlatRay],
+    occluded: bool,
+    mode: BatchMode,
+) -> bool {
+    let mut best = [f64::INFINITY; 2];
+    for round in 0..3 {
+        for (way, coherent) in [true, false].into_iter().enumerate() {
+            let start = thread_cpu_seconds();
+            std::hint::black_box(accel.trace_batched_as_c_caller(flat, occluded, mode, coherent));
+            if round > 0 {
+                best[way] = best[way].min(thread_cpu_seconds() - start);
+            }
+        }
+    }
+    best[0] <= best[1]
 }
 
 /// Times `flat` in every mode each backend has: native one ray at a time
 /// and in packets ([`Accel::closest_hits`]); each Embree as a plain C
 /// caller, one ray at a time and in each batched mode its version has
-/// (packets of 8 and 16; Embree 3's stream), the coherent hint on camera
-/// and light rays. Interleaved until the ratios to native single rays
-/// settle.
+/// (packets of 8 and 16; Embree 3's stream), each mode with the coherent
+/// hint or without, whichever traced these rays faster ([`faster_hint`]).
+/// Interleaved until the ratios to native single rays settle.
 pub fn compare_batched<A: Accel>(
     kind: &str,
     query: Query,
@@ -198,13 +235,13 @@ pub fn compare_batched<A: Accel>(
 ) -> PairedRow {
     let rays: Vec<Ray> = flat.iter().map(Ray::from_flat).collect();
     let occluded = query == Query::Occluded;
-    let coherent = coherent_kind(kind);
-    // (name, backend index, as a C caller, batched mode; None: single)
+    // (name, backend index, as a C caller, batched mode and hint; None:
+    // single)
     #[derive(Clone)]
     enum Mode {
         Single,
         Batch,
-        C(Option<BatchMode>),
+        C(Option<(BatchMode, bool)>),
     }
     let mut runs: Vec<(String, usize, Mode)> = Vec::new();
     for (b, (label, accel)) in backends.iter().enumerate() {
@@ -212,10 +249,15 @@ pub fn compare_batched<A: Accel>(
             runs.push((format!("{label} plain C"), b, Mode::C(None)));
             for mode in BatchMode::ALL {
                 if accel
-                    .trace_batched_as_c_caller(&[], occluded, mode, coherent)
+                    .trace_batched_as_c_caller(&[], occluded, mode, false)
                     .is_some()
                 {
-                    runs.push((format!("{label} {}", mode.name()), b, Mode::C(Some(mode))));
+                    let coherent = faster_hint(*accel, flat, occluded, mode);
+                    runs.push((
+                        format!("{label} {}", mode.name()),
+                        b,
+                        Mode::C(Some((mode, coherent))),
+                    ));
                 }
             }
         } else {
@@ -231,8 +273,8 @@ pub fn compare_batched<A: Accel>(
             Mode::Single => trace_all(accel, &rays, query, 1),
             Mode::Batch => trace_all_batched(accel, &rays, query, 1),
             Mode::C(None) => accel.trace_as_c_caller(flat, occluded).unwrap_or(0),
-            Mode::C(Some(m)) => accel
-                .trace_batched_as_c_caller(flat, occluded, *m, coherent)
+            Mode::C(Some((m, coherent))) => accel
+                .trace_batched_as_c_caller(flat, occluded, *m, *coherent)
                 .unwrap_or(0),
         };
         if i == 0 {
@@ -242,7 +284,10 @@ pub fn compare_batched<A: Accel>(
     });
     let runs = runs
         .into_iter()
-        .map(|(name, b, mode)| (name, b, matches!(mode, Mode::C(_))))
+        .map(|(name, b, mode)| match mode {
+            Mode::C(batch) => (name, b, true, batch.map(|(_, coherent)| coherent)),
+            Mode::Single | Mode::Batch => (name, b, false, None),
+        })
         .collect();
     row(kind, flat.len(), hits, runs, &timed)
 }
@@ -291,7 +336,7 @@ pub fn batched_table(rows: &[PairedRow]) -> Table {
         match best {
             Some(b) => {
                 cells.push(Cell::Ratio(packets / b.cpu.median).flagged(unsettled));
-                cells.push(Cell::Text(b.name.clone()));
+                cells.push(Cell::Text(b.describe()));
             }
             None => {
                 cells.push(Cell::Text("-".into()));

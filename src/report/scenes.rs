@@ -556,7 +556,7 @@ pub fn packets_section(results: &[SceneResult]) -> (String, Value) {
                 Cell::Text(row.kind.clone()),
                 Cell::Ratio(packets / single),
                 best.map_or(Cell::Empty, |b| Cell::Ratio(packets / b.cpu.median)),
-                best.map_or(Cell::Empty, |b| Cell::Text(b.name.clone())),
+                best.map_or(Cell::Empty, |b| Cell::Text(b.describe())),
                 Cell::Ratio(pairs[0][1].median / best_all),
                 Cell::Text(format!("≥ {target:.1}x")),
             ]);
@@ -576,7 +576,7 @@ pub fn packets_section(results: &[SceneResult]) -> (String, Value) {
         ));
     }
     let md = format!(
-        "## Packets\n\nCamera rays and the light rays of the camera's first hits, traced in batches: native in packets of sixteen rays of one octant with AVX-512, else eight (an interval test of each node's children against the packet, then the single-ray slab test lane by lane, leaves tested all the packet's rays per triangle, a child entered by one ray handed to the single-ray kernel); Embree in each batched mode its version has, called from C (`rtcIntersect8`/`rtcIntersect16`, `rtcOccluded8`/`rtcOccluded16`, Embree 3's `rtcIntersect1M`/`rtcOccluded1M` stream), the coherent hint on these rays. One thread: Mrays/s by CPU time, interleaved rounds as the headline's; all threads: wall clock, each backend's batch query and single rays. Targets (issue 28): native packets at least 1.2x Embree's best mode on camera rays and 1.0x on light rays.\n\n{}\nFrame time with camera rays and the first hits' shadow rays in packets over without (below 1: packets are faster; the per-scene sections' frame, same image either way), the median of the ratios of frames rendered one after the other in each of the interleaved rounds, with its 95% interval in parentheses: {}.\n\n",
+        "## Packets\n\nCamera rays and the light rays of the camera's first hits, traced in batches: native in packets of sixteen rays of one octant with AVX-512, else eight (an interval test of each node's children against the packet, then the single-ray slab test lane by lane, leaves tested all the packet's rays per triangle, a child entered by one ray handed to the single-ray kernel); Embree in each batched mode its version has, called from C (`rtcIntersect8`/`rtcIntersect16`, `rtcOccluded8`/`rtcOccluded16`, Embree 3's `rtcIntersect1M`/`rtcOccluded1M` stream), each mode with the coherent hint or without, whichever traced the rays faster in a trial (the best mode names it). One thread: Mrays/s by CPU time, interleaved rounds as the headline's; all threads: wall clock, each backend's batch query and single rays. Targets (issue 28): native packets at least 1.2x Embree's best mode on camera rays and 1.0x on light rays.\n\n{}\nFrame time with camera rays and the first hits' shadow rays in packets over without (below 1: packets are faster; the per-scene sections' frame, same image either way), the median of the ratios of frames rendered one after the other in each of the interleaved rounds, with its 95% interval in parentheses: {}.\n\n",
         table.markdown(),
         frames.join("; ")
     );
