@@ -78,7 +78,7 @@ pub fn compare<A: Accel>(
 ) -> PairedRow {
     let rays: Vec<Ray> = flat.iter().map(Ray::from_flat).collect();
     let occluded = query == Query::Occluded;
-    // (name, backend index, as a C caller)
+    // (name, backend index, as a C caller, no batched hint)
     let mut runs: Vec<(String, usize, bool, Option<bool>)> = Vec::new();
     for (b, (label, accel)) in backends.iter().enumerate() {
         if accel.trace_as_c_caller(&[], occluded).is_some() {
