@@ -127,8 +127,9 @@ size_t hybrid_embree4_occluded(void *fn, void *scene, const float *rays, size_t 
  * lanes marked invalid), and Embree 3's rtcIntersect1M stream. The query
  * hint is 0 or the version's own coherent flag, as the caller passes it:
  * Embree 3's context flag RTC_INTERSECT_CONTEXT_FLAG_COHERENT (1 << 0) or
- * Embree 4's argument flag RTC_RAY_QUERY_FLAG_COHERENT (1 << 16). Answers go to the caller's buffers when given, as the trait's batch
- * queries need them: per ray t, u, v, primitive and geometry id (geometry
+ * Embree 4's argument flag RTC_RAY_QUERY_FLAG_COHERENT (1 << 16). Answers
+ * go to the caller's buffers when given, as the trait's batch queries need
+ * them: per ray t, u, v, primitive and geometry id (geometry
  * INVALID_ID for a miss), or 1 for a blocked ray. */
 
 struct hybrid_hit {

@@ -206,6 +206,17 @@ pub fn time_interleaved<T>(n: usize, repeats: usize, run: impl FnMut(usize) -> T
 pub fn time_interleaved_samples<T>(
     n: usize,
     repeats: usize,
+    run: impl FnMut(usize) -> T,
+) -> Vec<Vec<f64>> {
+    let start = Instant::now();
+    time_interleaved_samples_by(n, repeats, || start.elapsed().as_secs_f64(), run)
+}
+
+/// [`time_interleaved_samples`] by the clock `now` (seconds).
+pub fn time_interleaved_samples_by<T>(
+    n: usize,
+    repeats: usize,
+    now: impl Fn() -> f64,
     mut run: impl FnMut(usize) -> T,
 ) -> Vec<Vec<f64>> {
     for i in 0..n {
@@ -215,9 +226,9 @@ pub fn time_interleaved_samples<T>(
     for round in 0..repeats.max(1) {
         for k in 0..n {
             let i = if round % 2 == 0 { k } else { n - 1 - k };
-            let start = Instant::now();
+            let start = now();
             std::hint::black_box(run(i));
-            seconds[i].push(start.elapsed().as_secs_f64());
+            seconds[i].push(now() - start);
         }
     }
     seconds

@@ -6,8 +6,8 @@
 //! ([`Settle`]). `hybrid bench` and the report's trace tables both use it.
 
 use super::measure::{
-    thread_cpu_seconds, time_settled, trace_all, trace_all_batched, Measured, Query, Settle,
-    Settled,
+    paired_ratio, thread_cpu_seconds, time_interleaved_samples_by, time_settled, trace_all,
+    trace_all_batched, Measured, Query, Settle, Settled,
 };
 use super::table::{Cell, Flag, Table};
 use crate::accel::{Accel, BatchMode};
@@ -194,9 +194,9 @@ pub fn table(rows: &[PairedRow]) -> Table {
 }
 
 /// Whether a library's batched `mode` traces `flat` faster with the
-/// coherent hint than without: each way three times, alternating, the
-/// first as a warm-up, the faster of the other two by the thread's CPU
-/// time. Embree asks for the hint on coherent rays, but which rays gain
+/// coherent hint than without: both ways after a warm-up, in two
+/// interleaved rounds by the thread's CPU time, the median of the
+/// per-round ratios. Embree asks for the hint on coherent rays, but which rays gain
 /// depends on the scene: the light rays of a tile's first hits ran faster
 /// with it on maxplanck (Embree 3's packets of 16, one thread: 10.5
 /// against 5.4 Mrays/s) and slower on CBbunny (19.3 against 24.6), so
@@ -207,17 +207,10 @@ pub fn faster_hint<A: Accel + ?Sized>(
     occluded: bool,
     mode: BatchMode,
 ) -> bool {
-    let mut best = [f64::INFINITY; 2];
-    for round in 0..3 {
-        for (way, coherent) in [true, false].into_iter().enumerate() {
-            let start = thread_cpu_seconds();
-            std::hint::black_box(accel.trace_batched_as_c_caller(flat, occluded, mode, coherent));
-            if round > 0 {
-                best[way] = best[way].min(thread_cpu_seconds() - start);
-            }
-        }
-    }
-    best[0] <= best[1]
+    let seconds = time_interleaved_samples_by(2, 2, thread_cpu_seconds, |way| {
+        accel.trace_batched_as_c_caller(flat, occluded, mode, way == 0)
+    });
+    paired_ratio(&seconds[0], &seconds[1]).1 <= 1.0
 }
 
 /// Times `flat` in every mode each backend has: native one ray at a time
