@@ -84,6 +84,11 @@ pub unsafe trait Width: Copy {
     /// empty).
     unsafe fn min_of(v: Self::V, mask: u32) -> f32;
     unsafe fn max_of(v: Self::V, mask: u32) -> f32;
+    /// [`Width::min_of`] of each of `v`: the smallest of its lanes in
+    /// `mask` (not empty).
+    unsafe fn min_each<const K: usize>(v: [Self::V; K], mask: u32) -> [f32; K] {
+        v.map(|x| Self::min_of(x, mask))
+    }
     /// The eight floats of each of up to `N` rays (`Ray` is eight floats,
     /// `repr(C)`), one vector per field; lanes past the rays repeat the
     /// last.
@@ -149,6 +154,41 @@ unsafe fn fields8(rays: &[Ray]) -> [__m256; 8] {
         _mm256_permute2f128_ps::<0x31>(u2, u6),
         _mm256_permute2f128_ps::<0x31>(u3, u7),
     ]
+}
+
+/// Sixteen rays' eight floats, transposed: eight loads of two rays each,
+/// then three rounds of two-source shuffles, each exchanging one bit of
+/// the ray index (which register) with one of the field index (which
+/// lane), 24 shuffles where [`fields8`] twice takes 56.
+#[inline(always)]
+unsafe fn fields16(rays: &[Ray; 16]) -> [__m512; 8] {
+    let base = rays.as_ptr().cast::<f32>();
+    let z: [__m512; 8] = std::array::from_fn(|j| _mm512_loadu_ps(base.add(16 * j)));
+    // Register j holds rays 2j and 2j + 1. Round one: four-float blocks,
+    // fields 0-3 of rays (2j, 2j + 1, 2j + 8, 2j + 9) and fields 4-7.
+    let mut a = [_mm512_setzero_ps(); 8];
+    for j in 0..4 {
+        a[j] = _mm512_shuffle_f32x4::<0x88>(z[j], z[j + 4]);
+        a[j + 4] = _mm512_shuffle_f32x4::<0xDD>(z[j], z[j + 4]);
+    }
+    // Round two: pairs of fields; round three: single fields, rays in
+    // order. The indices pick from the first register (0-15) or the
+    // second (16-31).
+    let even2 = _mm512_setr_epi32(0, 1, 4, 5, 16, 17, 20, 21, 8, 9, 12, 13, 24, 25, 28, 29);
+    let odd2 = _mm512_setr_epi32(2, 3, 6, 7, 18, 19, 22, 23, 10, 11, 14, 15, 26, 27, 30, 31);
+    let mut b = [_mm512_setzero_ps(); 8];
+    for k in [0, 1, 4, 5] {
+        b[k] = _mm512_permutex2var_ps(a[k], even2, a[k + 2]);
+        b[k + 2] = _mm512_permutex2var_ps(a[k], odd2, a[k + 2]);
+    }
+    let even3 = _mm512_setr_epi32(0, 2, 16, 18, 4, 6, 20, 22, 8, 10, 24, 26, 12, 14, 28, 30);
+    let odd3 = _mm512_setr_epi32(1, 3, 17, 19, 5, 7, 21, 23, 9, 11, 25, 27, 13, 15, 29, 31);
+    let mut out = [_mm512_setzero_ps(); 8];
+    for k in [0, 2, 4, 6] {
+        out[k] = _mm512_permutex2var_ps(b[k], even3, b[k + 1]);
+        out[k + 1] = _mm512_permutex2var_ps(b[k], odd3, b[k + 1]);
+    }
+    out
 }
 
 unsafe impl Width for X8 {
@@ -338,8 +378,56 @@ unsafe impl Width for X16 {
     unsafe fn max_of(v: __m512, mask: u32) -> f32 {
         _mm512_reduce_max_ps(X16::select(mask, _mm512_set1_ps(f32::NEG_INFINITY), v))
     }
+    /// Up to sixteen minima at once: four rounds, each halving the lanes
+    /// left of every input while pairing inputs into one register, 30
+    /// shuffles where sixteen reductions one by one take 64.
+    #[inline(always)]
+    unsafe fn min_each<const K: usize>(v: [__m512; K], mask: u32) -> [f32; K] {
+        const { assert!(K <= 16) };
+        let inf = _mm512_set1_ps(f32::INFINITY);
+        let mut x = [inf; 16];
+        for k in 0..K {
+            x[k] = X16::select(mask, inf, v[k]);
+        }
+        // Round one: register k holds inputs 2k and 2k + 1, eight lanes
+        // each; round two: register m holds inputs 4m to 4m + 3, one
+        // 128-bit block each.
+        let c: [__m512; 8] = std::array::from_fn(|k| {
+            let (a, b) = (x[2 * k], x[2 * k + 1]);
+            _mm512_min_ps(
+                _mm512_shuffle_f32x4::<0x44>(a, b),
+                _mm512_shuffle_f32x4::<0xEE>(a, b),
+            )
+        });
+        let d: [__m512; 4] = std::array::from_fn(|m| {
+            let (a, b) = (c[2 * m], c[2 * m + 1]);
+            _mm512_min_ps(
+                _mm512_shuffle_f32x4::<0x88>(a, b),
+                _mm512_shuffle_f32x4::<0xDD>(a, b),
+            )
+        });
+        // Rounds three and four, within each block: block j ends up
+        // holding inputs j, 4 + j, 8 + j and 12 + j, one lane each.
+        let e: [__m512; 2] = std::array::from_fn(|h| {
+            let (a, b) = (d[2 * h], d[2 * h + 1]);
+            _mm512_min_ps(
+                _mm512_shuffle_ps::<0x44>(a, b),
+                _mm512_shuffle_ps::<0xEE>(a, b),
+            )
+        });
+        let f = _mm512_min_ps(
+            _mm512_shuffle_ps::<0x88>(e[0], e[1]),
+            _mm512_shuffle_ps::<0xDD>(e[0], e[1]),
+        );
+        let mut lanes = [0.0f32; 16];
+        _mm512_storeu_ps(lanes.as_mut_ptr(), f);
+        std::array::from_fn(|k| lanes[4 * (k % 4) + k / 4])
+    }
     #[inline(always)]
     unsafe fn fields(rays: &[Ray]) -> [__m512; 8] {
+        if let Some(full) = rays.first_chunk::<16>() {
+            return fields16(full);
+        }
         let split = rays.len().min(8);
         let lo = fields8(&rays[..split]);
         // The second eight repeat the last ray when there are no more.
@@ -532,15 +620,37 @@ unsafe fn interval<W: Width, const ROBUST: bool>(p: &Packet<W>) -> Interval {
     let (mask, lead) = (p.mask, p.mask.trailing_zeros());
     let splat = |x: f32| _mm256_set1_ps(x);
     let zero = splat(0.0);
+    // The thirteen ends at once: maxima as minima of the negated lanes
+    // (exact), then per axis the reciprocals' range and the offsets' ends.
+    let neg = |v: W::V| W::xor(v, W::splat(-0.0));
+    let wants_min = |axis: usize| ROBUST && r.negative[axis] >> lead & 1 != 0;
+    let mut inputs = [r.lanes.t_min; 13];
+    for axis in 0..3 {
+        // Fast form `plane * r - c`: the largest `c` lowers the near
+        // distance, the smallest raises the far one. Robust form
+        // `(plane - o) * r`: which end of `o` does depends on the sign of
+        // `r`, the packet's octant.
+        let (nc, fc) = (near_c[axis], far_c[axis]);
+        inputs[1 + 4 * axis] = r.inv[axis];
+        inputs[2 + 4 * axis] = neg(r.inv[axis]);
+        inputs[3 + 4 * axis] = if wants_min(axis) { nc } else { neg(nc) };
+        inputs[4 + 4 * axis] = if wants_min(axis) { neg(fc) } else { fc };
+    }
+    let ends = W::min_each(inputs, mask);
     let mut ia = Interval {
         near_r: [(zero, zero); 3],
         near_c: [zero; 3],
         far_r: [(zero, zero); 3],
         far_c: [zero; 3],
-        t_min: splat(W::min_of(r.lanes.t_min, mask)),
+        t_min: splat(ends[0]),
     };
     for axis in 0..3 {
-        let (r_lo, r_hi) = (W::min_of(r.inv[axis], mask), W::max_of(r.inv[axis], mask));
+        let [r_lo, r_hi, nc, fc] = [1, 2, 3, 4].map(|k| ends[k + 4 * axis]);
+        let (r_hi, nc, fc) = if wants_min(axis) {
+            (-r_hi, nc, -fc)
+        } else {
+            (-r_hi, -nc, fc)
+        };
         ia.near_r[axis] = (splat(r_lo), splat(r_hi));
         // The fast form's far reciprocal is `r (1 + 2^-20)` lane by lane;
         // multiplying by a positive constant keeps the order, so its range
@@ -549,16 +659,6 @@ unsafe fn interval<W: Width, const ROBUST: bool>(p: &Packet<W>) -> Interval {
             (splat(r_lo), splat(r_hi))
         } else {
             (splat(r_lo * FAST_FAR_SCALE), splat(r_hi * FAST_FAR_SCALE))
-        };
-        // Fast form `plane * r - c`: the largest `c` lowers the near
-        // distance, the smallest raises the far one. Robust form
-        // `(plane - o) * r`: which end of `o` does depends on the sign of
-        // `r`, the packet's octant.
-        let negative_axis = r.negative[axis] >> lead & 1 != 0;
-        let (nc, fc) = if ROBUST && negative_axis {
-            (W::min_of(near_c[axis], mask), W::max_of(far_c[axis], mask))
-        } else {
-            (W::max_of(near_c[axis], mask), W::min_of(far_c[axis], mask))
         };
         ia.near_c[axis] = splat(nc);
         ia.far_c[axis] = splat(fc);
@@ -860,6 +960,92 @@ pub unsafe fn any<W: Width, const ROBUST: bool, P: PacketLeaves<W>>(
                 mask = m;
                 break;
             }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn avx512() -> bool {
+        let yes = is_x86_feature_detected!("avx512f") && is_x86_feature_detected!("avx2");
+        if !yes {
+            eprintln!("this CPU has no AVX-512: the sixteen-lane kernels are not reached here");
+        }
+        yes
+    }
+
+    /// Sixteen rays with distinct floats, field `f` of ray `i` being
+    /// `i + f / 8`.
+    fn rays() -> Vec<Ray> {
+        (0..16)
+            .map(|i| {
+                let x = |f: usize| i as f32 + f as f32 / 8.0;
+                Ray {
+                    origin: glam::Vec3::new(x(0), x(1), x(2)),
+                    dir: glam::Vec3::new(x(3), x(4), x(5)),
+                    t_min: x(6),
+                    t_max: x(7),
+                }
+            })
+            .collect()
+    }
+
+    #[target_feature(enable = "avx512f,avx2")]
+    unsafe fn transposed(rays: &[Ray]) -> [[f32; MAX_LANES]; 8] {
+        X16::fields(rays).map(|v| {
+            let mut a = [0.0; MAX_LANES];
+            X16::store(&mut a, v);
+            a
+        })
+    }
+
+    #[test]
+    fn sixteen_rays_transpose_as_eight_and_eight() {
+        if !avx512() {
+            return;
+        }
+        let rays = rays();
+        // SAFETY: the CPU has the features (checked above).
+        let whole = unsafe { transposed(&rays) };
+        for (f, lanes) in whole.iter().enumerate() {
+            for (i, &x) in lanes.iter().enumerate() {
+                assert_eq!(x, i as f32 + f as f32 / 8.0, "field {f} of ray {i}");
+            }
+        }
+        // Fifteen rays take the other path, the last ray repeated.
+        // SAFETY: as above.
+        let short = unsafe { transposed(&rays[..15]) };
+        for f in 0..8 {
+            assert_eq!(short[f][..15], whole[f][..15]);
+            assert_eq!(short[f][15], whole[f][14]);
+        }
+    }
+
+    #[target_feature(enable = "avx512f,avx2")]
+    unsafe fn minima(v: &[[f32; MAX_LANES]; 13], mask: u32) -> ([f32; 13], [f32; 13]) {
+        let vectors = v.map(|a| X16::load(&a));
+        (
+            X16::min_each(vectors, mask),
+            vectors.map(|x| X16::min_of(x, mask)),
+        )
+    }
+
+    #[test]
+    fn minima_at_once_are_the_minima_one_by_one() {
+        if !avx512() {
+            return;
+        }
+        // Each input has its minimum in another lane; the masks leave it
+        // out in some cases.
+        let v: [[f32; MAX_LANES]; 13] = std::array::from_fn(|k| {
+            std::array::from_fn(|l| ((l + 3 * k) % 16) as f32 - 100.0 * k as f32)
+        });
+        for mask in [0xffff, 0x8001, 0x0ff0, 0x0004, 0xfffe] {
+            // SAFETY: the CPU has the features (checked above).
+            let (at_once, one_by_one) = unsafe { minima(&v, mask) };
+            assert_eq!(at_once, one_by_one, "mask {mask:#06x}");
         }
     }
 }
