@@ -117,6 +117,11 @@ impl Default for NativeOptions {
 /// the machine's noise (not yet measured at sixteen).
 pub const MIN_PACKET: u32 = 4;
 
+/// A batch query asks for the rays of the group this many groups ahead
+/// before tracing each group (CBbunny camera packets 1.01x, maxplanck
+/// 1.03x, 8 and 6 alternating pairs).
+pub const PREFETCH_GROUPS: usize = 2;
+
 /// A child that fewer of a packet's rays enter is handed to the single-ray
 /// kernel, one ray at a time (0, 2 and 4 measured alike; 2 keeps a lone
 /// ray from dragging the packet's interval tests along).
@@ -625,12 +630,22 @@ impl Query for Closest {
             };
         let mut leaves = BlockPacket::new(blocks, p.rays);
         let (t, l) = (&mut t_max, &mut leaves);
-        if test == BoxTest::Fast && p.fast_test_fits() {
-            packet::closest::<W, false, _>(tree, p, t, l, &mut alone, work, SINGLE_BELOW);
+        let found = if test == BoxTest::Fast && p.fast_test_fits() {
+            packet::closest::<W, false, _>(tree, p, t, l, &mut alone, work, SINGLE_BELOW)
         } else {
-            packet::closest::<W, true, _>(tree, p, t, l, &mut alone, work, SINGLE_BELOW);
-        }
-        for i in lanes_of(p.mask) {
+            packet::closest::<W, true, _>(tree, p, t, l, &mut alone, work, SINGLE_BELOW)
+        };
+        // Without spheres a miss is one store, and no lane's branch depends
+        // on whether it hit.
+        let all = if bvh.sphere_items.is_empty() {
+            for i in lanes_of(p.mask & !found) {
+                out[i] = None;
+            }
+            found
+        } else {
+            p.mask
+        };
+        for i in lanes_of(all) {
             let mut hit = leaves.hit(i).map(|(prim, u, v)| Hit {
                 t: t_max[i],
                 prim,
@@ -797,12 +812,23 @@ impl NativeBvh {
             PacketKernels::Avx2(_) => (Self::group8::<Q>, 8),
             PacketKernels::None => return None,
         };
-        for (rays, out) in rays.chunks(lanes).zip(out.chunks_mut(lanes)) {
-            counters.rays += rays.len() as u64;
+        for (k, (group_rays, out)) in rays.chunks(lanes).zip(out.chunks_mut(lanes)).enumerate() {
+            counters.rays += group_rays.len() as u64;
+            // The rays of the group after next, half a cache line each:
+            // their first loads otherwise wait for memory.
+            let ahead = rays.as_ptr().wrapping_add((k + PREFETCH_GROUPS) * lanes);
+            for line in 0..lanes / 2 {
+                let line = ahead.cast::<i8>().wrapping_add(64 * line);
+                // SAFETY: SSE is in every x86_64 CPU, and a prefetch never
+                // faults, whatever the address.
+                unsafe {
+                    std::arch::x86_64::_mm_prefetch::<{ std::arch::x86_64::_MM_HINT_T0 }>(line)
+                };
+            }
             // SAFETY: the kernels were chosen by the token that proves
             // their CPU features; the triangle tree is not empty (checked
             // above).
-            unsafe { group(self, blocks, rays, out, counters) };
+            unsafe { group(self, blocks, group_rays, out, counters) };
         }
         Some(())
     }
