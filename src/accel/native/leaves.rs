@@ -214,12 +214,13 @@ unsafe fn lanes_hit<W: Width, const BEHIND: bool>(
 
 /// Möller–Trumbore blocks for a packet: each triangle against all its rays
 /// at once ([`lanes_hit`]); remembers per lane the nearest hit's block and
-/// lane (`4 * block + lane`), `u` and `v`.
+/// lane (`4 * block + lane`, kept as a float's bits so that a lane blend
+/// carries it with `u` and `v`), `u` and `v`.
 #[cfg(target_arch = "x86_64")]
 pub(super) struct BlockPacket<'a, W: Width> {
     pub(super) blocks: &'a [TriangleBlock4],
     pub(super) rays: &'a Lanes<W>,
-    pub(super) best: [u32; MAX_LANES],
+    pub(super) best: [f32; MAX_LANES],
     pub(super) u: [f32; MAX_LANES],
     pub(super) v: [f32; MAX_LANES],
 }
@@ -230,7 +231,7 @@ impl<'a, W: Width> BlockPacket<'a, W> {
         BlockPacket {
             blocks,
             rays: &rays.lanes,
-            best: [u32::MAX; MAX_LANES],
+            best: [f32::from_bits(u32::MAX); MAX_LANES],
             u: [0.0; MAX_LANES],
             v: [0.0; MAX_LANES],
         }
@@ -239,7 +240,7 @@ impl<'a, W: Width> BlockPacket<'a, W> {
     /// Lane `i`'s hit as a single-ray leaf test left it.
     pub(super) fn set(&mut self, i: usize, hit: Option<(u32, usize, f32, f32)>) {
         if let Some((b, lane, u, v)) = hit {
-            self.best[i] = 4 * b + lane as u32;
+            self.best[i] = f32::from_bits(4 * b + lane as u32);
             self.u[i] = u;
             self.v[i] = v;
         }
@@ -247,7 +248,7 @@ impl<'a, W: Width> BlockPacket<'a, W> {
 
     /// Lane `i`'s nearest hit: (primitive, u, v).
     pub(super) fn hit(&self, i: usize) -> Option<(u32, f32, f32)> {
-        let id = self.best[i];
+        let id = self.best[i].to_bits();
         (id != u32::MAX).then(|| {
             let block = &self.blocks[(id / 4) as usize];
             (block.prim((id % 4) as usize), self.u[i], self.v[i])
@@ -266,6 +267,8 @@ impl<W: Width> PacketLeaves<W> for BlockPacket<'_, W> {
         t_max: &mut [f32; MAX_LANES],
     ) -> u32 {
         let mut t_lanes = W::load(t_max);
+        let (mut best, mut u_lanes, mut v_lanes) =
+            (W::load(&self.best), W::load(&self.u), W::load(&self.v));
         let mut found = 0;
         for b in first..first + count {
             let block = &self.blocks[b as usize];
@@ -282,20 +285,14 @@ impl<W: Width> PacketLeaves<W> for BlockPacket<'_, W> {
                 }
                 found |= hits;
                 t_lanes = W::select(hits, t_lanes, t);
-                let (mut us, mut vs) = ([0.0f32; MAX_LANES], [0.0f32; MAX_LANES]);
-                W::store(&mut us, u);
-                W::store(&mut vs, v);
-                let id = 4 * b + i as u32;
-                let mut m = hits;
-                while m != 0 {
-                    let lane = m.trailing_zeros() as usize;
-                    m &= m - 1;
-                    self.best[lane] = id;
-                    self.u[lane] = us[lane];
-                    self.v[lane] = vs[lane];
-                }
+                u_lanes = W::select(hits, u_lanes, u);
+                v_lanes = W::select(hits, v_lanes, v);
+                best = W::select(hits, best, W::splat(f32::from_bits(4 * b + i as u32)));
             }
         }
+        W::store(&mut self.best, best);
+        W::store(&mut self.u, u_lanes);
+        W::store(&mut self.v, v_lanes);
         W::store(t_max, t_lanes);
         found
     }
