@@ -8,7 +8,12 @@ median and range of bench's plain-C Mrays/s over the C program's, pair by
 pair. Native's figure is the same in both, so these ratios are also how far
 bench's native/Embree ratios lie from native over the C program.
 
-    python3 tools/check_plain_c.py DIR [PAIRS] [CPU]
+With --batched it checks the packet16 columns of `hybrid bench --batched`
+(camera and light rays) against the C program's rtcIntersect16 /
+rtcOccluded16, taking in both the faster of with and without the coherent
+hint, as bench does.
+
+    python3 tools/check_plain_c.py DIR [PAIRS] [CPU] [--batched]
 
 DIR is a folder from `hybrid rays export`; PAIRS defaults to 8, CPU to 1.
 Needs a release build (`cargo build --release`) and gcc.
@@ -31,9 +36,7 @@ LIBRARIES = {
     ),
 }
 KINDS = ["camera", "camera_rows", "incoherent", "shadow", "bounce", "light"]
-# Columns of `hybrid bench`'s table (after the leading empty cell): the
-# plain-C Mrays/s of each version.
-PLAIN_C_COLUMN = {3: 5, 4: 7}
+BATCHED_KINDS = ["camera", "light"]
 
 
 def fail(message):
@@ -48,36 +51,46 @@ def run(command):
     return done.stdout
 
 
-def standalone(program, directory, version, cpu):
-    out = run(["taskset", "-c", cpu, program, directory, LIBRARIES[version], "3"])
+def standalone(program, directory, version, cpu, batched):
+    command = ["taskset", "-c", cpu, program, directory, LIBRARIES[version], "3"]
+    out = run(command + (["packets"] if batched else []))
     figures = {}
     for line in out.splitlines():
-        m = re.match(r"(\w+)\s+\d+ rays\s+\d+ hits\s+([\d.]+) Mrays/s", line)
+        m = re.match(r"(\w+)( packet16)?( hint)?\s+\d+ rays\s+\d+ hits\s+([\d.]+) Mrays/s", line)
         if m:
-            figures[m.group(1)] = float(m.group(2))
+            # With and without the hint: the faster, as bench takes it.
+            figures[m.group(1)] = max(figures.get(m.group(1), 0.0), float(m.group(4)))
     return figures
 
 
-def bench(directory, cpu):
-    out = run(
-        ["taskset", "-c", cpu, HYBRID, "bench", directory, "--min-rounds", "3", "--max-rounds", "3"]
-    )
-    figures = {}
+def bench(directory, cpu, batched):
+    command = [HYBRID, "bench", directory, "--min-rounds", "3", "--max-rounds", "3"]
+    out = run(["taskset", "-c", cpu] + command + (["--batched"] if batched else []))
+    mode = "packet16" if batched else "plain C"
+    figures, columns = {}, {}
     for line in out.splitlines():
         cells = [c.strip() for c in line.split("|")]
-        kind = cells[1].replace(" ", "_") if len(cells) > 10 else ""
-        if kind in KINDS:
-            for version, column in PLAIN_C_COLUMN.items():
+        if len(cells) > 2 and cells[1] == "rays":
+            columns = {v: cells.index(f"embree{v} {mode} Mrays/s") for v in LIBRARIES}
+            continue
+        kind = cells[1].replace(" ", "_") if len(cells) > 2 else ""
+        if columns and kind in KINDS:
+            for version, column in columns.items():
                 figures[(version, kind)] = float(cells[column].split()[0])
+    if not columns:
+        fail(f"no table in the output of {' '.join(command)}")
     return figures
 
 
 def main():
-    if len(sys.argv) < 2:
-        fail("usage: check_plain_c.py DIR [PAIRS] [CPU]")
-    directory = sys.argv[1]
-    pairs = int(sys.argv[2]) if len(sys.argv) > 2 else 8
-    cpu = sys.argv[3] if len(sys.argv) > 3 else "1"
+    batched = "--batched" in sys.argv
+    args = [a for a in sys.argv[1:] if a != "--batched"]
+    if not args:
+        fail("usage: check_plain_c.py DIR [PAIRS] [CPU] [--batched]")
+    directory = args[0]
+    pairs = int(args[1]) if len(args) > 1 else 8
+    cpu = args[2] if len(args) > 2 else "1"
+    kinds = BATCHED_KINDS if batched else KINDS
     if not os.path.isfile(HYBRID):
         fail(f"{HYBRID} is missing: run cargo build --release first")
     versions = [v for v in LIBRARIES if os.path.isfile(LIBRARIES[v])]
@@ -89,21 +102,22 @@ def main():
                 ["gcc", "-O2", "-o", programs[v], os.path.join(ROOT, "tools", "embree_replay.c"),
                  "-ldl", f"-DEMBREE_MAJOR={v}"]
             )
-        ratios = {(v, k): [] for v in versions for k in KINDS}
+        ratios = {(v, k): [] for v in versions for k in kinds}
         for i in range(pairs):
             # Alternate which goes first, so that a drift of the machine's
             # speed during a pair does not always favour one side.
             if i % 2 == 0:
-                b = bench(directory, cpu)
-                c = {v: standalone(programs[v], directory, v, cpu) for v in versions}
+                b = bench(directory, cpu, batched)
+                c = {v: standalone(programs[v], directory, v, cpu, batched) for v in versions}
             else:
-                c = {v: standalone(programs[v], directory, v, cpu) for v in versions}
-                b = bench(directory, cpu)
+                c = {v: standalone(programs[v], directory, v, cpu, batched) for v in versions}
+                b = bench(directory, cpu, batched)
             for v in versions:
-                for k in KINDS:
+                for k in kinds:
                     if (v, k) in b and k in c[v]:
                         ratios[(v, k)].append(b[(v, k)] / c[v][k])
-    print(f"{directory}: hybrid bench's plain-C Mrays/s over tools/embree_replay.c's, {pairs} pairs")
+    what = "packet16" if batched else "plain-C"
+    print(f"{directory}: hybrid bench's {what} Mrays/s over tools/embree_replay.c's, {pairs} pairs")
     for (v, k), r in ratios.items():
         if r:
             r.sort()

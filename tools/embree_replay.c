@@ -5,8 +5,14 @@
  * rounds). Embree is opened with dlopen so that one source serves both
  * versions without their headers.
  *
+ * With `packets` as the fourth argument it replays the camera and light
+ * rays (the kinds `hybrid bench --batched` times) through rtcIntersect16 /
+ * rtcOccluded16 instead, sixteen consecutive rays a call, once without a
+ * hint and once with the version's coherent flag (Embree 3's context flag
+ * 1, Embree 4's query flag 1 << 16), each timed alone.
+ *
  *   gcc -O2 -o /tmp/replay3 tools/embree_replay.c -ldl -DEMBREE_MAJOR=3
- *   taskset -c 1 /tmp/replay3 DIR /usr/lib/x86_64-linux-gnu/libembree3.so.3 [ROUNDS]
+ *   taskset -c 1 /tmp/replay3 DIR /usr/lib/x86_64-linux-gnu/libembree3.so.3 [ROUNDS] [packets]
  */
 #include <dlfcn.h>
 #include <stdint.h>
@@ -28,6 +34,24 @@ struct hit { float nx, ny, nz, u, v; unsigned prim, geom, inst[1], inst_prim[1];
 #endif
 struct rayhit { struct ray ray; struct hit hit; } __attribute__((aligned(16)));
 struct context { unsigned flags; void *filter; unsigned inst[1]; };
+
+/* RTCRay16 and RTCHit16: one array of sixteen per field, in the order of
+ * the single-ray structs. Embree 4.3+ adds instPrimID. */
+struct ray16 {
+  float ox[16], oy[16], oz[16], tnear[16], dx[16], dy[16], dz[16], time[16], tfar[16];
+  unsigned mask[16], id[16], flags[16];
+} __attribute__((aligned(64)));
+struct hit16 {
+  float nx[16], ny[16], nz[16], u[16], v[16];
+  unsigned prim[16], geom[16], inst[16];
+#if EMBREE_MAJOR == 4
+  unsigned inst_prim[16];
+#endif
+} __attribute__((aligned(64)));
+struct rayhit16 { struct ray16 ray; struct hit16 hit; };
+/* Embree 4's RTCIntersectArguments / RTCOccludedArguments: flags, feature
+ * mask (all), no context or callbacks; room for minWidthDistanceFactor. */
+struct args4 { unsigned flags, features; void *context, *filter, *callback; float min_width; };
 
 static float *read_hybrid(const char *path, const char *magic, size_t per, uint64_t *count,
                           uint32_t *tag) {
@@ -66,6 +90,8 @@ static void (*rtcReleaseGeometry)(void *);
 static void (*rtcCommitScene)(void *);
 static void (*intersect1)();
 static void (*occluded1)();
+static void (*intersect16)();
+static void (*occluded16)();
 
 static size_t trace(void *scene, const float *r, uint64_t n, int occlusion) {
   size_t hits = 0;
@@ -85,17 +111,63 @@ static size_t trace(void *scene, const float *r, uint64_t n, int occlusion) {
   return hits;
 }
 
+/* Rays `first` to `first + 16` (those past `n` invalid) into `p`. */
+static void fill16(struct ray16 *p, int *valid, const float *r, uint64_t first, uint64_t n) {
+  for (int i = 0; i < 16; i++) {
+    uint64_t k = first + i < n ? first + i : first;
+    const float *q = r + 8 * k;
+    p->ox[i] = q[0]; p->oy[i] = q[1]; p->oz[i] = q[2];
+    p->dx[i] = q[3]; p->dy[i] = q[4]; p->dz[i] = q[5];
+    p->tnear[i] = q[6]; p->tfar[i] = q[7];
+    p->time[i] = 0; p->mask[i] = INVALID; p->id[i] = 0; p->flags[i] = 0;
+    valid[i] = first + i < n ? -1 : 0;
+  }
+}
+
+static size_t trace16(void *scene, const float *r, uint64_t n, int occlusion, unsigned hint) {
+  size_t hits = 0;
+  struct context ctx = {hint, NULL, {INVALID}};
+  struct args4 args = {hint, 0xffffffffu, NULL, NULL, NULL, 0.0f};
+  static struct rayhit16 p;
+  int valid[16] __attribute__((aligned(64)));
+  for (uint64_t first = 0; first < n; first += 16) {
+    fill16(&p.ray, valid, r, first, n);
+#if EMBREE_MAJOR == 3
+    (void)args;
+    if (occlusion) occluded16(valid, scene, &ctx, &p.ray);
+#else
+    (void)ctx;
+    if (occlusion) occluded16(valid, scene, &p.ray, &args);
+#endif
+    else {
+      for (int i = 0; i < 16; i++) p.hit.geom[i] = p.hit.prim[i] = p.hit.inst[i] = INVALID;
+#if EMBREE_MAJOR == 3
+      intersect16(valid, scene, &ctx, &p);
+#else
+      intersect16(valid, scene, &p, &args);
+#endif
+    }
+    for (int i = 0; i < 16 && first + i < n; i++)
+      hits += occlusion ? p.ray.tfar[i] < 0 : p.hit.geom[i] != INVALID;
+  }
+  return hits;
+}
+
 #define LOAD(name) if (!(*(void **)&name = dlsym(lib, #name))) { fprintf(stderr, "no %s\n", #name); return 2; }
 
 int main(int argc, char **argv) {
-  if (argc < 3) { fprintf(stderr, "usage: %s DIR LIBEMBREE [ROUNDS]\n", argv[0]); return 2; }
+  if (argc < 3) { fprintf(stderr, "usage: %s DIR LIBEMBREE [ROUNDS] [packets]\n", argv[0]); return 2; }
   int rounds = argc > 3 ? atoi(argv[3]) : 9;
+  int packets = argc > 4 && !strcmp(argv[4], "packets");
+  if (rounds < 1) { fprintf(stderr, "ROUNDS must be a positive whole number\n"); return 2; }
   void *lib = dlopen(argv[2], RTLD_NOW | RTLD_LOCAL);
   if (!lib) { fprintf(stderr, "%s\n", dlerror()); return 2; }
   LOAD(rtcNewDevice) LOAD(rtcNewScene) LOAD(rtcNewGeometry) LOAD(rtcSetNewGeometryBuffer)
   LOAD(rtcCommitGeometry) LOAD(rtcAttachGeometry) LOAD(rtcReleaseGeometry) LOAD(rtcCommitScene)
   if (!(*(void **)&intersect1 = dlsym(lib, "rtcIntersect1"))) return 2;
   if (!(*(void **)&occluded1 = dlsym(lib, "rtcOccluded1"))) return 2;
+  if (!(*(void **)&intersect16 = dlsym(lib, "rtcIntersect16"))) return 2;
+  if (!(*(void **)&occluded16 = dlsym(lib, "rtcOccluded16"))) return 2;
   char path[4096];
   uint64_t nt; uint32_t tag;
   snprintf(path, sizeof path, "%s/triangles.bin", argv[1]);
@@ -116,23 +188,30 @@ int main(int argc, char **argv) {
   const char *kinds[] = {"camera", "camera_rows", "incoherent", "shadow", "bounce", "light"};
   printf("Embree %d (%s), %llu triangles, %d rounds, Mrays/s by thread CPU time\n",
          EMBREE_MAJOR, argv[2], (unsigned long long)nt, rounds);
+  unsigned coherent = EMBREE_MAJOR == 3 ? 1u : 1u << 16;
   for (int k = 0; k < 6; k++) {
+    if (packets && k != 0 && k != 5) continue;
     uint64_t n; uint32_t query;
     snprintf(path, sizeof path, "%s/%s.rays", argv[1], kinds[k]);
     float *rays = read_hybrid(path, "HYBRAYS1", 8, &n, &query);
     if (!rays) continue;
-    size_t hits = trace(scene, rays, n, query == 1);
-    double *t = malloc(sizeof(double) * rounds);
-    for (int r = 0; r < rounds; r++) {
-      double s = cpu_seconds();
-      trace(scene, rays, n, query == 1);
-      t[r] = cpu_seconds() - s;
+    for (int mode = 0; mode < (packets ? 2 : 1); mode++) {
+      unsigned hint = mode ? coherent : 0;
+#define RUN() (packets ? trace16(scene, rays, n, query == 1, hint) : trace(scene, rays, n, query == 1))
+      size_t hits = RUN();
+      double *t = malloc(sizeof(double) * rounds);
+      for (int r = 0; r < rounds; r++) {
+        double s = cpu_seconds();
+        RUN();
+        t[r] = cpu_seconds() - s;
+      }
+      qsort(t, rounds, sizeof(double), cmp);
+      const char *label = !packets ? "" : mode ? " packet16 hint" : " packet16";
+      printf("%s%-*s %8llu rays %8zu hits %8.2f Mrays/s (%.2f-%.2f)\n", kinds[k],
+             (int)(12 - strlen(kinds[k])), label, (unsigned long long)n, hits,
+             n / t[rounds / 2] / 1e6, n / t[rounds - 1] / 1e6, n / t[0] / 1e6);
+      free(t);
     }
-    qsort(t, rounds, sizeof(double), cmp);
-    printf("%-12s %8llu rays %8zu hits %8.2f Mrays/s (%.2f-%.2f)\n", kinds[k],
-           (unsigned long long)n, hits, n / t[rounds / 2] / 1e6, n / t[rounds - 1] / 1e6,
-           n / t[0] / 1e6);
-    free(t);
     free(rays);
   }
   return 0;
