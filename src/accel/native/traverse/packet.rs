@@ -696,7 +696,8 @@ unsafe fn distance<const ROBUST: bool>(plane: __m256, r: __m256, c: __m256) -> _
 unsafe fn interval_end<const ROBUST: bool, const FAR: bool>(
     node: &Node8,
     ia: &Interval,
-    (row, axis): (usize, usize),
+    row: usize,
+    axis: usize,
 ) -> __m256 {
     let p = _mm256_load_ps(node.planes[row].as_ptr());
     if FAR {
@@ -723,17 +724,15 @@ unsafe fn interval_slab<const ROBUST: bool>(
     // Calls of a function, not of closures: a closure is only hinted
     // inline, and the two this replaces were compiled out of line (six
     // calls a node; inlined, 0.97-1.05x, within the noise).
-    let near_end = |a: usize| (rows[a].0, a);
     let (n0, n1, n2) = (
-        interval_end::<ROBUST, false>(node, ia, near_end(0)),
-        interval_end::<ROBUST, false>(node, ia, near_end(1)),
-        interval_end::<ROBUST, false>(node, ia, near_end(2)),
+        interval_end::<ROBUST, false>(node, ia, rows[0].0, 0),
+        interval_end::<ROBUST, false>(node, ia, rows[1].0, 1),
+        interval_end::<ROBUST, false>(node, ia, rows[2].0, 2),
     );
-    let far_end = |a: usize| (rows[a].1, a);
     let (f0, f1, f2) = (
-        interval_end::<ROBUST, true>(node, ia, far_end(0)),
-        interval_end::<ROBUST, true>(node, ia, far_end(1)),
-        interval_end::<ROBUST, true>(node, ia, far_end(2)),
+        interval_end::<ROBUST, true>(node, ia, rows[0].1, 0),
+        interval_end::<ROBUST, true>(node, ia, rows[1].1, 1),
+        interval_end::<ROBUST, true>(node, ia, rows[2].1, 2),
     );
     let near = _mm256_max_ps(_mm256_max_ps(n0, n1), _mm256_max_ps(n2, ia.t_min));
     let far = _mm256_min_ps(_mm256_min_ps(f0, f1), f2);
