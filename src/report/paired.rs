@@ -7,7 +7,7 @@
 
 use super::measure::{
     paired_ratio, thread_cpu_seconds, time_interleaved_samples_by, time_settled, trace_all,
-    trace_all_batched, Measured, Query, Settle, Settled,
+    trace_all_batched, Measured, Pass, Query, Settle, Settled,
 };
 use super::table::{Cell, Flag, Table};
 use crate::accel::{Accel, BatchMode};
@@ -88,15 +88,17 @@ pub fn compare<A: Accel>(
     }
     // Run 0 is native's own; its answers are the row's hit count.
     let mut hits = 0;
-    let timed = time_settled(runs.len(), settle, |i| {
+    let timed = time_settled(runs.len(), settle, |i, pass| {
         let (_, b, c, _) = runs[i];
         let accel = backends[b].1;
         let n = if c {
-            accel.trace_as_c_caller(flat, occluded).unwrap_or(0)
+            accel
+                .trace_as_c_caller(pass.part(flat), occluded)
+                .unwrap_or(0)
         } else {
-            trace_all(accel, &rays, query, 1)
+            trace_all(accel, pass.part(&rays), query, 1)
         };
-        if i == 0 {
+        if i == 0 && pass == Pass::Timed {
             hits = n;
         }
         std::hint::black_box(n);
@@ -259,18 +261,19 @@ pub fn compare_batched<A: Accel>(
         }
     }
     let mut hits = 0;
-    let timed = time_settled(runs.len(), settle, |i| {
+    let timed = time_settled(runs.len(), settle, |i, pass| {
         let (_, b, mode) = &runs[i];
         let accel = backends[*b].1;
+        let (flat, rays) = (pass.part(flat), pass.part(&rays));
         let n = match mode {
-            Mode::Single => trace_all(accel, &rays, query, 1),
-            Mode::Batch => trace_all_batched(accel, &rays, query, 1),
+            Mode::Single => trace_all(accel, rays, query, 1),
+            Mode::Batch => trace_all_batched(accel, rays, query, 1),
             Mode::C(None) => accel.trace_as_c_caller(flat, occluded).unwrap_or(0),
             Mode::C(Some((m, coherent))) => accel
                 .trace_batched_as_c_caller(flat, occluded, *m, *coherent)
                 .unwrap_or(0),
         };
-        if i == 0 {
+        if i == 0 && pass == Pass::Timed {
             hits = n;
         }
         std::hint::black_box(n);
