@@ -171,6 +171,9 @@ pub unsafe fn closest<const ROBUST: bool, L: Leaves>(
             // SAFETY: `current` is the root of a non-empty tree or an
             // inner reference read from one of its nodes.
             let node = tree.node_unchecked(current);
+            // The child line is read only once the hit mask is known;
+            // asked for now, its miss overlaps the plane lines' misses.
+            _mm_prefetch::<_MM_HINT_T0>(node.child.as_ptr().cast());
             work.nodes += 1;
             let (near, hits) = slab::<ROBUST>(node, &l, far);
             let mask = _mm256_movemask_ps(hits) as u32;
@@ -235,6 +238,8 @@ pub unsafe fn any<const ROBUST: bool, L: Leaves>(
         if !is_leaf(current) {
             // SAFETY: as in `closest`.
             let node = tree.node_unchecked(current);
+            // As in `closest`: the child line's miss overlaps the planes'.
+            _mm_prefetch::<_MM_HINT_T0>(node.child.as_ptr().cast());
             work.nodes += 1;
             let (_, hits) = slab::<ROBUST>(node, &l, far);
             let mask = _mm256_movemask_ps(hits) as u32;
