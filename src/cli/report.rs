@@ -14,7 +14,8 @@ pub struct ReportArgs {
     /// Output folder for report.md, report.json and the plots.
     #[arg(long, default_value = "report")]
     pub out: PathBuf,
-    /// Two scenes instead of five, the same rays, fewer rounds and samples (about seven minutes on two cores).
+    /// Two scenes instead of five, the same rays, fewer rounds and samples
+    /// (about seven minutes on two cores).
     #[arg(long)]
     pub quick: bool,
     /// Threads for the all-threads figures (default: all cores).
