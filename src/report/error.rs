@@ -331,8 +331,10 @@ pub fn headline(study: &ErrorStudy) -> String {
         return String::new();
     };
     let mut md = format!(
-        "Error at equal time ({t:.2} s per render, `{}`, {} bounces, {} threads), RMSE against the reference:\n\n",
-        study.scene, study.max_bounces, study.threads
+        "Error at equal time ({t:.2} s per render, `{}`, {} bounces, {}), RMSE against the reference:\n\n",
+        study.scene,
+        study.max_bounces,
+        super::counted(study.threads, "thread")
     );
     for backend in compared().iter().map(|c| c.kind()) {
         let at = |e| study.rmse_at_equal_time(backend, e);
@@ -377,10 +379,10 @@ pub fn markdown(study: &ErrorStudy) -> String {
         None => String::new(),
     };
     format!(
-        "## Speed against error\n\n`{}` (the project's glossy scene: rough metal spheres of Beckmann alpha 0.025 and 0.25, a mirror sphere, an area light) at {w}x{h}, {} bounces, one light sample, {} threads; error is the RMSE of linear radiance against a reference rendered once with {} spp (native, MIS, another seed). Adaptive sampling (MIS) uses batches of {ADAPTIVE_BATCH} up to {} spp with tolerances 0.4 .. 0.025. Each point is the root mean square of the RMSE of renders of different seeds (enough for {SEEDED_SAMPLES} samples per pixel in all, at most {MAX_SEEDS} renders) at the mean time of one: a single render at a few samples usually misses a heavy-tailed estimator's rare bright samples and reads low. {}\n\n![speed against error](speed_vs_error.svg)\n\n{equal}\n{}\n{}\nA Monte Carlo estimator's RMSE falls as time^-1/2 (slope -0.5); at equal time the lower line is the better estimator, and an error ratio r is a time ratio r^2. The two backends trace the same paths, so their lines differ only by trace speed.\n\n",
+        "## Speed against error\n\n`{}` (the project's glossy scene: rough metal spheres of Beckmann alpha 0.025 and 0.25, a mirror sphere, an area light) at {w}x{h}, {} bounces, one light sample, {}; error is the RMSE of linear radiance against a reference rendered once with {} spp (native, MIS, another seed). Adaptive sampling (MIS) uses batches of {ADAPTIVE_BATCH} up to {} spp with tolerances 0.4 .. 0.025. Each point is the root mean square of the RMSE of renders of different seeds (enough for {SEEDED_SAMPLES} samples per pixel in all, at most {MAX_SEEDS} renders) at the mean time of one: a single render at a few samples usually misses a heavy-tailed estimator's rare bright samples and reads low. {}\n\n![speed against error](speed_vs_error.svg)\n\n{equal}\n{}\n{}\nA Monte Carlo estimator's RMSE falls as time^-1/2 (slope -0.5); at equal time the lower line is the better estimator, and an error ratio r is a time ratio r^2. The two backends trace the same paths, so their lines differ only by trace speed.\n\n",
         study.scene,
         study.max_bounces,
-        study.threads,
+        super::counted(study.threads, "thread"),
         study.reference_spp,
         study.adaptive_cap,
         rising_text(study),

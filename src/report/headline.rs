@@ -11,11 +11,7 @@ use crate::accel::BackendConfig;
 /// backend after native, by its index in [`SceneResult::compared`].
 /// `1 thread`, `2 threads`.
 fn threads_text(threads: usize) -> String {
-    if threads == 1 {
-        "1 thread".into()
-    } else {
-        format!("{threads} threads")
-    }
+    super::counted(threads, "thread")
 }
 
 fn rivals(results: &[SceneResult]) -> Vec<(usize, String)> {
@@ -158,7 +154,10 @@ pub fn versions_table(results: &[SceneResult]) -> Option<Table> {
         }));
         table.row(cells);
     }
-    let mut cells = vec![Cell::Text(format!("frame, {} threads", first.threads))];
+    let mut cells = vec![Cell::Text(format!(
+        "frame, {}",
+        threads_text(first.threads)
+    ))];
     cells.extend(results.iter().map(|r| {
         let pair = [r.frame_pair(e4)[1], r.frame_pair(e3)[1]];
         Cell::ratio_of(pair[1].median / pair[0].median, &pair)

@@ -330,7 +330,7 @@ pub enum Pass {
 impl Pass {
     /// The part of `items` this pass covers: the first sixteenth (at
     /// least one) for a primer, all of them for a timed pass.
-    pub fn part<'a, T>(self, items: &'a [T]) -> &'a [T] {
+    pub fn part<T>(self, items: &[T]) -> &[T] {
         match self {
             Pass::Prime => &items[..items.len().div_ceil(16)],
             Pass::Timed => items,

@@ -41,7 +41,8 @@ use crate::scene::{collada, NormalMode, Scene};
 pub struct ReportOptions {
     pub scenes_dir: PathBuf,
     pub out_dir: PathBuf,
-    /// Reduced sizes, repeats and resolutions: under a minute on two cores.
+    /// Two scenes instead of five, fewer rounds, samples and resolutions:
+    /// about seven minutes on two cores.
     pub quick: bool,
     /// Threads for the "all threads" figures; 0 means all cores.
     pub threads: usize,
@@ -57,6 +58,15 @@ pub(crate) fn load(dir: &Path, rel: &str) -> Result<Scene, String> {
 /// Loads one of the project's own scenes.
 pub(crate) fn load_builtin(builtin: Builtin) -> Result<Scene, String> {
     builtin.load(NormalMode::Smooth).map_err(|e| e.to_string())
+}
+
+/// `n` and its noun, plural unless `n` is one: `1 thread`, `2 threads`.
+pub(crate) fn counted(n: usize, noun: &str) -> String {
+    if n == 1 {
+        format!("1 {noun}")
+    } else {
+        format!("{n} {noun}s")
+    }
 }
 
 fn threads_or_all(threads: usize) -> usize {
@@ -127,9 +137,9 @@ pub fn run(options: &ReportOptions, log: &mut dyn FnMut(&str)) -> Result<(), Str
     let (packets_md, packets_json) = scenes::packets_section(&per_scene);
     let brute_table = brute::table(&brute_rows);
     let mut md = format!(
-        "# hybrid: native BVH against Embree\n\nMeasured on {} ({} cores; ISA {}), {}, hybrid {}, {}, on {}. Settings: {} run, {} rays per ray kind, medians of {} warmed-up repeats ({} per frame; range in parentheses: min–max), all-threads figures on {threads} threads.\n\n",
+        "# hybrid: native BVH against Embree\n\nMeasured on {} ({}; ISA {}), {}, hybrid {}, {}, on {}. Settings: {} run, {} rays per ray kind, medians of {} warmed-up repeats ({} per frame; range in parentheses: min–max), all-threads figures on {}.\n\n",
         machine.cpu,
-        machine.cores,
+        counted(machine.cores, "core"),
         machine.isa.join(" "),
         machine.rustc,
         machine.crate_version,
@@ -138,7 +148,8 @@ pub fn run(options: &ReportOptions, log: &mut dyn FnMut(&str)) -> Result<(), Str
         if options.quick { "quick" } else { "full" },
         budget.rays,
         budget.repeats,
-        budget.frame_repeats
+        budget.frame_repeats,
+        counted(threads, "thread"),
     );
     let verdict = headline::verdict(&per_scene, &headline);
     md += &verdict;
@@ -193,4 +204,14 @@ pub fn run(options: &ReportOptions, log: &mut dyn FnMut(&str)) -> Result<(), Str
     )?;
     step(&format!("wrote {}", out.join("report.md").display()));
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn counts_of_one_are_singular_and_others_plural() {
+        assert_eq!(super::counted(1, "thread"), "1 thread");
+        assert_eq!(super::counted(2, "core"), "2 cores");
+        assert_eq!(super::counted(0, "thread"), "0 threads");
+    }
 }

@@ -370,7 +370,10 @@ fn builds_table(r: &SceneResult) -> Table {
     let mut table = Table::new([
         ("build", "build".to_string()),
         ("ms_1_thread", "ms, 1 thread (CPU time)".to_string()),
-        ("ms_all_threads", format!("ms, {t} threads")),
+        (
+            "ms_all_threads",
+            format!("ms, {}", super::counted(t, "thread")),
+        ),
         ("memory_mib", "memory MiB".to_string()),
         ("nodes", "nodes".to_string()),
         ("depth", "depth".to_string()),
