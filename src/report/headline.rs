@@ -9,11 +9,6 @@ use crate::accel::BackendConfig;
 
 /// The Embree backends the headline compares native with: every compared
 /// backend after native, by its index in [`SceneResult::compared`].
-/// `1 thread`, `2 threads`.
-fn threads_text(threads: usize) -> String {
-    super::counted(threads, "thread")
-}
-
 fn rivals(results: &[SceneResult]) -> Vec<(usize, String)> {
     results.first().map_or(Vec::new(), |r| {
         r.compared
@@ -68,7 +63,7 @@ pub fn table(results: &[SceneResult]) -> Table {
     };
     let on = |all: bool| {
         if all {
-            threads_text(threads)
+            super::counted(threads, "thread")
         } else {
             "1 thread".into()
         }
@@ -117,7 +112,7 @@ pub fn table(results: &[SceneResult]) -> Table {
                 .collect(),
         );
         row(
-            format!("frame, {}, vs {rival}", threads_text(threads)),
+            format!("frame, {}, vs {rival}", super::counted(threads, "thread")),
             results
                 .iter()
                 .map(|r| Cell::ratio_of(r.frame_ratio(j), &r.frame_pair(j)))
@@ -156,7 +151,7 @@ pub fn versions_table(results: &[SceneResult]) -> Option<Table> {
     }
     let mut cells = vec![Cell::Text(format!(
         "frame, {}",
-        threads_text(first.threads)
+        super::counted(first.threads, "thread")
     ))];
     cells.extend(results.iter().map(|r| {
         let pair = [r.frame_pair(e4)[1], r.frame_pair(e3)[1]];
@@ -271,7 +266,7 @@ pub fn verdict(results: &[SceneResult], table: &Table) -> String {
         if !frames.is_empty() {
             text += &format!(
                 "A path-traced frame on {} renders at {} of {rival}'s speed. ",
-                threads_text(threads),
+                super::counted(threads, "thread"),
                 range(&frames)
             );
         }
@@ -305,7 +300,7 @@ pub fn verdict(results: &[SceneResult], table: &Table) -> String {
     if below > 0 {
         text += &format!(
             "{below} figures on {} fell below their one-thread figure ({}). ",
-            threads_text(threads),
+            super::counted(threads, "thread"),
             Flag::BelowOneThread.mark()
         );
     }
