@@ -112,7 +112,7 @@ pub fn table(results: &[SceneResult]) -> Table {
                 .collect(),
         );
         row(
-            format!("frame, {}, vs {rival}", super::counted(threads, "thread")),
+            format!("frame, {}, vs {rival}", on(true)),
             results
                 .iter()
                 .map(|r| Cell::ratio_of(r.frame_ratio(j), &r.frame_pair(j)))
