@@ -166,11 +166,14 @@ impl<'s, V: Version> EmbreeAccel<'s, V> {
     ) -> Result<EmbreeAccel<'s, V>, AccelError> {
         let api = V::api().map_err(AccelError::Unavailable)?;
         let start = Instant::now();
-        let config = if options.threads > 0 {
-            format!("threads={}", options.threads)
-        } else {
-            String::new()
-        };
+        // `threads=N` from `-t`; `max_isa=...` when `HYBRID_ISA` caps the
+        // instruction set, so Embree runs the kernels an older CPU runs.
+        let config: Vec<String> = (options.threads > 0)
+            .then(|| format!("threads={}", options.threads))
+            .into_iter()
+            .chain(crate::accel::native::cpu::Isa::embree_config())
+            .collect();
+        let config = config.join(",");
         let device = Device::new(api, &config).map_err(AccelError::Embree)?;
         let scene_options = SceneOptions {
             quality: options.quality,
