@@ -86,8 +86,19 @@ pub unsafe trait Width: Copy {
     unsafe fn max_of(v: Self::V, mask: u32) -> f32;
     /// [`Width::min_of`] of each of `v`: the smallest of its lanes in
     /// `mask` (not empty).
+    ///
+    /// A plain loop, not `v.map(..)`: `array::map` runs the closure inside
+    /// core's `try_map`, which has no target features, so the intrinsics
+    /// in it could not be inlined and became calls passing vectors through
+    /// memory; eight-ray packets ran at a quarter of single rays (issue
+    /// 49, seen on Zen 3 and on Sapphire Rapids with `HYBRID_ISA=avx2`).
+    #[inline(always)]
     unsafe fn min_each<const K: usize>(v: [Self::V; K], mask: u32) -> [f32; K] {
-        v.map(|x| Self::min_of(x, mask))
+        let mut out = [0.0; K];
+        for k in 0..K {
+            out[k] = Self::min_of(v[k], mask);
+        }
+        out
     }
     /// The eight floats of each of up to `N` rays (`Ray` is eight floats,
     /// `repr(C)`), one vector per field; lanes past the rays repeat the
