@@ -432,6 +432,7 @@ pub fn write_files(files: &[(&Path, ImageFile)]) -> Result<(), FilmError> {
             let mut out = BufWriter::new(file);
             image.write_to(&mut out).map_err(|e| fail(path, e))?;
             out.flush().map_err(|e| fail(path, e.to_string()))?;
+            hold_if_asked();
         }
         Ok(())
     })();
@@ -457,6 +458,19 @@ pub fn write_files(files: &[(&Path, ImageFile)]) -> Result<(), FilmError> {
         f.paths.retain(|p| p != tmp);
     }
     result
+}
+
+/// Set to stop every write with its temporary file complete and not yet
+/// renamed, until a signal ends the process: the point a signal must find
+/// handled, reached by construction, so the test of it races nothing.
+pub const HOLD_WRITE_VARIABLE: &str = "HYBRID_TEST_HOLD_WRITE";
+
+fn hold_if_asked() {
+    if std::env::var_os(HOLD_WRITE_VARIABLE).is_some() {
+        loop {
+            std::thread::park();
+        }
+    }
 }
 
 /// Checks, before any work, that `path` can be written: its folder exists
