@@ -132,6 +132,10 @@ pub fn main() -> i32 {
             return 2;
         }
     };
+    if let Err(message) = crate::accel::native::cpu::Isa::check_variable() {
+        report_line("error", &message);
+        return 2;
+    }
     let outcome = match cli.command {
         Command::Render(args) => render::run(&args).map(|()| true),
         Command::Parity(args) => parity::run(&args),

@@ -1,5 +1,6 @@
 //! `hybrid render`: load, build the chosen backend, render, write, report.
 
+use crate::accel::native::cpu::Isa;
 use std::io::IsTerminal;
 use std::path::PathBuf;
 use std::time::Instant;
@@ -508,10 +509,21 @@ pub fn render_with(args: &RenderArgs, settings: &RenderSettings) -> Result<Rende
         say!("wrote the camera to {}", path.display());
     }
 
+    if let Some(cap) = Isa::cap_note() {
+        say!("{cap}");
+    }
     let backend = args.backend();
     let accel = backend.build(&scene).map_err(|e| e.to_string())?;
     let stats = accel.stats();
     say!("{}", stats.describe());
+    say!(
+        "camera rays and their first hits' shadow rays: {}",
+        if settings.packets {
+            stats.batch_call
+        } else {
+            "one at a time (--no-packets)"
+        }
+    );
     if !backend.suits(&scene) {
         super::report_line(
             "warning",

@@ -113,6 +113,19 @@ impl Isa {
         Isa::requested().map(|_| ())
     }
 
+    /// A line saying the instruction set is capped below the CPU's, when
+    /// it is.
+    pub fn cap_note() -> Option<String> {
+        let (ceiling, detected) = (Isa::ceiling(), Isa::detected());
+        (ceiling < detected).then(|| {
+            format!(
+                "instruction set capped at {} by {ISA_VARIABLE} (this CPU runs {}): native and Embree run the kernels of such a CPU",
+                ceiling.name(),
+                detected.name()
+            )
+        })
+    }
+
     /// Embree's device configuration for this ceiling: `max_isa=...` when
     /// it lies below what the CPU runs, else nothing (Embree picks the
     /// best it has).
