@@ -33,7 +33,7 @@ use serde_json::json;
 
 use self::budget::{report_scenes, Budget};
 use crate::accel::config::compared;
-use crate::accel::{Accel, AccelError, BackendConfig};
+use crate::accel::{Accel, AccelError};
 use crate::scene::builtin::Builtin;
 use crate::scene::{collada, NormalMode, Scene};
 
@@ -97,13 +97,23 @@ pub fn run(options: &ReportOptions, log: &mut dyn FnMut(&str)) -> Result<(), Str
     std::fs::create_dir_all(out)
         .map_err(|e| format!("{}: cannot create the folder: {e}", out.display()))?;
     let machine = machine::Machine::detect();
-    let embree_version = compared()
+    // Which kernels each backend runs here (native's traversal and packet
+    // width, Embree's version and ISA), so a reader on another CPU knows
+    // which figures apply to theirs.
+    let kernels = compared()
         .iter()
-        .filter(|c| matches!(c, BackendConfig::Embree(_)))
-        .map(|c| Ok(c.build(&Scene::default())?.stats().details))
+        .map(|c| {
+            let stats = c.build(&Scene::default())?.stats();
+            Ok(format!(
+                "{}: {}; batches: {}",
+                c.label(),
+                stats.details,
+                stats.batch_call
+            ))
+        })
         .collect::<Result<Vec<String>, AccelError>>()
-        .map_err(|e| e.to_string())?
-        .join("; ");
+        .map_err(|e| e.to_string())?;
+    let embree_version = kernels[1..].join("; ");
 
     let mut per_scene = Vec::new();
     for s in &report_scenes(options.quick) {
@@ -151,6 +161,10 @@ pub fn run(options: &ReportOptions, log: &mut dyn FnMut(&str)) -> Result<(), Str
         budget.frame_repeats,
         counted(threads, "thread"),
     );
+    md += &format!("Kernels: {}.\n\n", kernels.join(". "));
+    if let Some(cap) = crate::accel::native::cpu::Isa::cap_note() {
+        md += &format!("{cap}.\n\n");
+    }
     let verdict = headline::verdict(&per_scene, &headline);
     md += &verdict;
     md += &headline::markdown(&headline, &per_scene);
@@ -171,7 +185,7 @@ pub fn run(options: &ReportOptions, log: &mut dyn FnMut(&str)) -> Result<(), Str
         start.elapsed().as_secs_f64()
     );
     let report_json = json!({
-        "machine": {"cpu": machine.cpu, "cores": machine.cores, "isa": machine.isa, "rustc": machine.rustc, "hybrid": machine.crate_version, "embree": embree_version, "date": machine.date},
+        "machine": {"cpu": machine.cpu, "cores": machine.cores, "isa": machine.isa, "rustc": machine.rustc, "hybrid": machine.crate_version, "embree": embree_version, "kernels": kernels, "isa_ceiling": crate::accel::native::cpu::Isa::ceiling().name(), "date": machine.date},
         "settings": {"quick": options.quick, "rays": budget.rays, "repeats": budget.repeats, "frame_repeats": budget.frame_repeats, "threads": threads},
         "verdict": verdict.trim(),
         "headline": headline.json(),
