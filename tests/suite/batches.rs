@@ -337,27 +337,57 @@ fn packets_leave_the_image_unchanged() {
 /// calls it. One reached through code without the features (a closure run
 /// by `array::map`, issue 49) stays a function call that passes vectors
 /// through memory: eight-ray packets then ran at a quarter of single rays.
-/// Such a call leaves the intrinsic as a symbol of its own in the binary;
-/// only CPU detection's own (`cpuid`, `xgetbv`) may stand there.
+/// Such a call leaves the intrinsic as a symbol of its own, or has the
+/// kernel call the library function that runs the closure (`map`'s
+/// `try_map`, `from_fn`'s `try_from_fn`). So: no x86 intrinsic stands as a
+/// function in the binary (CPU detection's `cpuid` and `xgetbv` aside),
+/// and the packet and AVX2 kernels call no array builder.
 #[test]
 fn simd_intrinsics_are_inlined_into_their_kernels() {
     let binary = env!("CARGO_BIN_EXE_hybrid");
-    let out = std::process::Command::new("nm")
-        .args(["--defined-only", "-C", binary])
-        .output()
-        .expect("nm (binutils) lists the binary's symbols");
-    assert!(out.status.success(), "nm {binary}: {out:?}");
-    let symbols = String::from_utf8_lossy(&out.stdout);
+    let run = |tool: &str, args: &[&str]| {
+        let out = std::process::Command::new(tool)
+            .args(args)
+            .arg(binary)
+            .output()
+            .unwrap_or_else(|e| panic!("{tool} (binutils) reads the binary: {e}"));
+        assert!(out.status.success(), "{tool} {binary}: {out:?}");
+        String::from_utf8_lossy(&out.stdout).into_owned()
+    };
+    let symbols = run("nm", &["--defined-only", "-C"]);
     let detection = ["cpuid", "xgetbv"];
-    let calls: Vec<&str> = symbols
+    let mut wrong: Vec<String> = symbols
         .lines()
-        .filter(|l| l.contains("core_arch::x86"))
-        .filter(|l| !detection.iter().any(|d| l.contains(d)))
+        .filter(|l| l.contains("core_arch::x86") && !detection.iter().any(|d| l.contains(d)))
+        .map(|l| format!("out of line: {l}"))
         .collect();
+    let kernels = [
+        "NativeBvh::group8",
+        "NativeBvh::group16",
+        "traverse::avx2::",
+    ];
+    let builders = ["try_map", "try_from_fn", "core_arch::x86"];
+    let mut kernel = None;
+    let mut kernels_seen = 0;
+    for line in run("objdump", &["-d", "--no-show-raw-insn", "-C"]).lines() {
+        if let Some(name) = line.strip_suffix(">:").and_then(|l| l.split_once(" <")) {
+            let name = name.1.to_string();
+            kernel = kernels.iter().any(|k| name.contains(k)).then_some(name);
+            kernels_seen += usize::from(kernel.is_some());
+        } else if let Some(name) = &kernel {
+            if line.contains("call") && builders.iter().any(|b| line.contains(b)) {
+                wrong.push(format!("{name} calls {}", line.trim()));
+            }
+        }
+    }
     assert!(
-        calls.is_empty(),
-        "{} intrinsics compiled out of line (called, not inlined):\n{}",
-        calls.len(),
-        calls.join("\n")
+        kernels_seen >= 3,
+        "found {kernels_seen} kernels in {binary}"
+    );
+    assert!(
+        wrong.is_empty(),
+        "{} calls where SIMD code should be inlined:\n{}",
+        wrong.len(),
+        wrong.join("\n")
     );
 }

@@ -725,7 +725,15 @@ impl NativeBvh {
         out: &mut [Q::Answer],
         counters: &mut TraceCounters,
     ) {
-        let prepared = PacketRays::<W>::load(rays);
+        let Some(prepared) = PacketRays::<W>::load(rays) else {
+            // No packet can form: the rays go alone, without the rest of
+            // the lanes' set-up (incoherent batches ran at 0.80-0.87x
+            // single rays with it, AVX2 kernels, CBbunny).
+            for (ray, answer) in rays.iter().zip(out.iter_mut()) {
+                *answer = Q::alone(self, ray, counters);
+            }
+            return;
+        };
         let mut rest = prepared.traceable;
         let lanes = (1u32 << out.len()) - 1;
         for i in lanes_of(lanes & !rest) {

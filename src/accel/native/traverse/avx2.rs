@@ -23,7 +23,13 @@ struct Lanes {
 #[target_feature(enable = "avx2,fma,popcnt,lzcnt,bmi1,bmi2")]
 #[inline]
 fn lanes<const ROBUST: bool>(ray: &BoxRay) -> Lanes {
-    let splat = |v: Vec3A| v.to_array().map(|x| _mm256_set1_ps(x));
+    let splat = |v: Vec3A| {
+        [
+            _mm256_set1_ps(v.x),
+            _mm256_set1_ps(v.y),
+            _mm256_set1_ps(v.z),
+        ]
+    };
     let (near_c, far_r, far_c) = if ROBUST {
         (ray.origin, ray.inv_dir, ray.origin)
     } else {

@@ -37,6 +37,7 @@
 use std::arch::x86_64::*;
 
 use super::*;
+use crate::accel::native::MIN_PACKET;
 use crate::geom::Ray;
 
 /// Most rays in a packet: the lane arrays' length for either width.
@@ -71,6 +72,8 @@ pub unsafe trait Width: Copy {
     unsafe fn abs(a: Self::V) -> Self::V;
     /// `m`'s magnitude with `s`'s sign.
     unsafe fn copysign(m: Self::V, s: Self::V) -> Self::V;
+    /// The lanes whose sign bit is set.
+    unsafe fn sign_bits(a: Self::V) -> u32;
     unsafe fn le(a: Self::V, b: Self::V) -> u32;
     unsafe fn lt(a: Self::V, b: Self::V) -> u32;
     unsafe fn gt(a: Self::V, b: Self::V) -> u32;
@@ -189,7 +192,10 @@ unsafe fn shuffle_round(x: [__m512; 8], step: usize, even: __m512i, odd: __m512i
 #[inline(always)]
 unsafe fn fields16(rays: &[Ray; 16]) -> [__m512; 8] {
     let base = rays.as_ptr().cast::<f32>();
-    let z: [__m512; 8] = std::array::from_fn(|j| _mm512_loadu_ps(base.add(16 * j)));
+    let mut z = [_mm512_setzero_ps(); 8];
+    for (j, register) in z.iter_mut().enumerate() {
+        *register = _mm512_loadu_ps(base.add(16 * j));
+    }
     // Register j holds rays 2j and 2j + 1. Round one: four-float blocks,
     // fields 0-3 of rays (2j, 2j + 1, 2j + 8, 2j + 9) and fields 4-7.
     let mut a = [_mm512_setzero_ps(); 8];
@@ -263,6 +269,10 @@ unsafe impl Width for X8 {
         _mm256_or_ps(_mm256_andnot_ps(sign, m), _mm256_and_ps(sign, s))
     }
     #[inline(always)]
+    unsafe fn sign_bits(a: __m256) -> u32 {
+        _mm256_movemask_ps(a) as u32
+    }
+    #[inline(always)]
     unsafe fn le(a: __m256, b: __m256) -> u32 {
         _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(a, b)) as u32
     }
@@ -303,6 +313,57 @@ unsafe impl Width for X8 {
         let m = _mm256_max_ps(m, _mm256_permute2f128_ps::<1>(m, m));
         let m = _mm256_max_ps(m, _mm256_shuffle_ps::<0b0100_1110>(m, m));
         _mm256_cvtss_f32(_mm256_max_ps(m, _mm256_shuffle_ps::<0b1011_0001>(m, m)))
+    }
+    /// Up to sixteen minima at once: three rounds, each halving the lanes
+    /// left of every input while pairing inputs into one register (42
+    /// shuffles and minima where sixteen reductions one by one take 96),
+    /// as [`X16::min_each`] does at sixteen lanes.
+    #[inline(always)]
+    unsafe fn min_each<const K: usize>(v: [__m256; K], mask: u32) -> [f32; K] {
+        const { assert!(K <= 16) };
+        let inf = _mm256_set1_ps(f32::INFINITY);
+        let lanes = lane_mask8(mask);
+        let mut x = [inf; 16];
+        for k in 0..K {
+            x[k] = _mm256_blendv_ps(inf, v[k], lanes);
+        }
+        // Round one: register k holds inputs 2k and 2k + 1, one 128-bit
+        // half each; round two: register m holds, per half, two lanes of
+        // inputs 4m and 4m + 2 (low half) or 4m + 1 and 4m + 3 (high).
+        let mut c = [_mm256_setzero_ps(); 8];
+        for k in 0..8 {
+            let (a, b) = (x[2 * k], x[2 * k + 1]);
+            c[k] = _mm256_min_ps(
+                _mm256_permute2f128_ps::<0x20>(a, b),
+                _mm256_permute2f128_ps::<0x31>(a, b),
+            );
+        }
+        let mut d = [_mm256_setzero_ps(); 4];
+        for m in 0..4 {
+            let (a, b) = (c[2 * m], c[2 * m + 1]);
+            d[m] = _mm256_min_ps(
+                _mm256_shuffle_ps::<0x44>(a, b),
+                _mm256_shuffle_ps::<0xEE>(a, b),
+            );
+        }
+        // Round three: lane j of register h is input 8h + 2 (j % 4) + j / 4.
+        let mut e = [_mm256_setzero_ps(); 2];
+        for h in 0..2 {
+            let (a, b) = (d[2 * h], d[2 * h + 1]);
+            e[h] = _mm256_min_ps(
+                _mm256_shuffle_ps::<0x88>(a, b),
+                _mm256_shuffle_ps::<0xDD>(a, b),
+            );
+        }
+        let mut out = [0.0f32; 16];
+        _mm256_storeu_ps(out.as_mut_ptr(), e[0]);
+        _mm256_storeu_ps(out.as_mut_ptr().add(8), e[1]);
+        let mut each = [0.0f32; K];
+        for k in 0..K {
+            let r = k % 8;
+            each[k] = out[8 * (k / 8) + 4 * (r % 2) + r / 2];
+        }
+        each
     }
     #[inline(always)]
     unsafe fn fields(rays: &[Ray]) -> [__m256; 8] {
@@ -366,6 +427,14 @@ unsafe impl Width for X16 {
         ))
     }
     #[inline(always)]
+    unsafe fn sign_bits(a: __m512) -> u32 {
+        // A float's sign bit is its bits' as a signed integer.
+        u32::from(_mm512_cmplt_epi32_mask(
+            _mm512_castps_si512(a),
+            _mm512_setzero_si512(),
+        ))
+    }
+    #[inline(always)]
     unsafe fn le(a: __m512, b: __m512) -> u32 {
         u32::from(_mm512_cmp_ps_mask::<_CMP_LE_OQ>(a, b))
     }
@@ -415,36 +484,43 @@ unsafe impl Width for X16 {
         // Round one: register k holds inputs 2k and 2k + 1, eight lanes
         // each; round two: register m holds inputs 4m to 4m + 3, one
         // 128-bit block each.
-        let c: [__m512; 8] = std::array::from_fn(|k| {
+        let mut c = [_mm512_setzero_ps(); 8];
+        for k in 0..8 {
             let (a, b) = (x[2 * k], x[2 * k + 1]);
-            _mm512_min_ps(
+            c[k] = _mm512_min_ps(
                 _mm512_shuffle_f32x4::<0x44>(a, b),
                 _mm512_shuffle_f32x4::<0xEE>(a, b),
-            )
-        });
-        let d: [__m512; 4] = std::array::from_fn(|m| {
+            );
+        }
+        let mut d = [_mm512_setzero_ps(); 4];
+        for m in 0..4 {
             let (a, b) = (c[2 * m], c[2 * m + 1]);
-            _mm512_min_ps(
+            d[m] = _mm512_min_ps(
                 _mm512_shuffle_f32x4::<0x88>(a, b),
                 _mm512_shuffle_f32x4::<0xDD>(a, b),
-            )
-        });
+            );
+        }
         // Rounds three and four, within each block: block j ends up
         // holding inputs j, 4 + j, 8 + j and 12 + j, one lane each.
-        let e: [__m512; 2] = std::array::from_fn(|h| {
+        let mut e = [_mm512_setzero_ps(); 2];
+        for h in 0..2 {
             let (a, b) = (d[2 * h], d[2 * h + 1]);
-            _mm512_min_ps(
+            e[h] = _mm512_min_ps(
                 _mm512_shuffle_ps::<0x44>(a, b),
                 _mm512_shuffle_ps::<0xEE>(a, b),
-            )
-        });
+            );
+        }
         let f = _mm512_min_ps(
             _mm512_shuffle_ps::<0x88>(e[0], e[1]),
             _mm512_shuffle_ps::<0xDD>(e[0], e[1]),
         );
         let mut lanes = [0.0f32; 16];
         _mm512_storeu_ps(lanes.as_mut_ptr(), f);
-        std::array::from_fn(|k| lanes[4 * (k % 4) + k / 4])
+        let mut each = [0.0f32; K];
+        for k in 0..K {
+            each[k] = lanes[4 * (k % 4) + k / 4];
+        }
+        each
     }
     #[inline(always)]
     unsafe fn fields(rays: &[Ray]) -> [__m512; 8] {
@@ -499,15 +575,51 @@ pub struct PacketRays<W: Width> {
     negative: [u32; 3],
 }
 
+/// The lanes of `group` whose octant (per axis, the lanes in `negative`
+/// point down it) is that of its lowest lane.
+#[inline(always)]
+fn same_octant(negative: [u32; 3], group: u32) -> u32 {
+    let lead = group.trailing_zeros();
+    let mut same = group;
+    for n in negative {
+        same &= if n >> lead & 1 != 0 { n } else { !n };
+    }
+    same
+}
+
+/// Whether [`MIN_PACKET`] of the lanes in `lanes` share an octant.
+#[inline(always)]
+fn packet_can_form(negative: [u32; 3], lanes: u32) -> bool {
+    let mut rest = lanes;
+    while rest.count_ones() >= MIN_PACKET {
+        let group = same_octant(negative, rest);
+        if group.count_ones() >= MIN_PACKET {
+            return true;
+        }
+        rest &= !group;
+    }
+    false
+}
+
 impl<W: Width> PacketRays<W> {
-    /// The first `W::N` of `rays` (at least one).
+    /// The first `W::N` of `rays` (at least one) as lanes, or `None` when
+    /// no [`MIN_PACKET`] of them share an octant: then no packet can form,
+    /// and the rest of the set-up (three divisions, the box test's
+    /// constants) would be paid for nothing. The octants are read from
+    /// the directions' sign bits, which are the octants the packet code
+    /// sorts traceable rays by.
     ///
     /// # Safety
     /// Only from `W`'s `#[target_feature]` code ([`Width`]).
     #[inline(always)]
-    pub unsafe fn load(rays: &[Ray]) -> PacketRays<W> {
+    pub unsafe fn load(rays: &[Ray]) -> Option<PacketRays<W>> {
         let [ox, oy, oz, dx, dy, dz, t_min, t_max] = W::fields(rays);
         let (origin, dir) = ([ox, oy, oz], [dx, dy, dz]);
+        let lanes = (1u32 << rays.len().min(W::N)) - 1;
+        let signs = [W::sign_bits(dx), W::sign_bits(dy), W::sign_bits(dz)];
+        if !packet_can_form(signs, lanes) {
+            return None;
+        }
         // Ray::traceable_vectors, lane by lane.
         let limit = W::splat(crate::geom::ray::COORDINATE_LIMIT);
         let zero = W::splat(0.0);
@@ -541,8 +653,7 @@ impl<W: Width> PacketRays<W> {
             fits &= W::lt(W::abs(fast[0][a]), infinity) & W::lt(W::abs(fast[2][a]), infinity);
             negative[a] = W::lt(safe, zero);
         }
-        let lanes = (1u32 << rays.len().min(W::N)) - 1;
-        PacketRays {
+        Some(PacketRays {
             lanes: Lanes {
                 origin,
                 dir,
@@ -559,16 +670,13 @@ impl<W: Width> PacketRays<W> {
             traceable: traceable & moves & lanes,
             fits,
             negative,
-        }
+        })
     }
 
     /// The lanes of `group` whose directions lie in the octant of its
     /// lowest lane.
     pub fn same_octant(&self, group: u32) -> u32 {
-        let lead = group.trailing_zeros();
-        self.negative
-            .iter()
-            .fold(group, |m, &n| m & if n >> lead & 1 != 0 { n } else { !n })
+        same_octant(self.negative, group)
     }
 
     /// Each lane's `t_max`.
@@ -1068,6 +1176,32 @@ mod tests {
             X16::min_each(vectors, mask),
             vectors.map(|x| X16::min_of(x, mask)),
         )
+    }
+
+    #[target_feature(enable = "avx2")]
+    unsafe fn minima8(v: &[[f32; MAX_LANES]; 13], mask: u32) -> ([f32; 13], [f32; 13]) {
+        let vectors = v.map(|a| X8::load(&a));
+        let mut one_by_one = [0.0; 13];
+        for (k, x) in vectors.iter().enumerate() {
+            one_by_one[k] = X8::min_of(*x, mask);
+        }
+        (X8::min_each(vectors, mask), one_by_one)
+    }
+
+    #[test]
+    fn eight_lane_minima_at_once_are_the_minima_one_by_one() {
+        if !is_x86_feature_detected!("avx2") {
+            eprintln!("this CPU has no AVX2: the eight-lane kernels are not reached here");
+            return;
+        }
+        let v: [[f32; MAX_LANES]; 13] = std::array::from_fn(|k| {
+            std::array::from_fn(|l| ((l + 3 * k) % 8) as f32 - 100.0 * k as f32)
+        });
+        for mask in [0xff, 0x81, 0x3c, 0x04, 0xfe] {
+            // SAFETY: the CPU has the feature (checked above).
+            let (at_once, one_by_one) = unsafe { minima8(&v, mask) };
+            assert_eq!(at_once, one_by_one, "mask {mask:#04x}");
+        }
     }
 
     #[test]
