@@ -124,7 +124,41 @@ pub fn read_rays(path: &Path) -> Result<(Query, Vec<FlatRay>), FileError> {
         .chunks_exact(8)
         .map(|c| c.try_into().expect("8 floats"))
         .collect();
+    if rays.is_empty() {
+        return Err(bad(path, "holds no rays: there is nothing to time"));
+    }
+    for (i, ray) in rays.iter().enumerate() {
+        check_ray(ray).map_err(|why| bad(path, format!("ray {i}: {why}")))?;
+    }
     Ok((query, rays))
+}
+
+/// `Err` with the reason when a ray is not one every backend takes as it
+/// is: Embree asserts on non-finite or out-of-range origins and
+/// directions and on `t_min` outside `[0, t_max]` (its `ray.valid()`),
+/// where the other backends would treat the ray as a miss, so a replay of
+/// such a ray would time different work on each.
+fn check_ray(ray: &FlatRay) -> Result<(), String> {
+    let limit = crate::geom::ray::COORDINATE_LIMIT;
+    let in_range = |v: &[f32]| v.iter().all(|x| x.is_finite() && x.abs() <= limit);
+    let (origin, dir, t_min, t_max) = (&ray[0..3], &ray[3..6], ray[6], ray[7]);
+    if !in_range(origin) {
+        return Err(format!(
+            "origin {origin:?} is not finite within ±{limit:e} (Embree's range)"
+        ));
+    }
+    if !in_range(dir) || dir.iter().all(|&x| x == 0.0) {
+        return Err(format!(
+            "direction {dir:?} is not a finite non-zero vector within ±{limit:e}"
+        ));
+    }
+    // Written so that NaN fails every test.
+    if !(t_min.is_finite() && t_min >= 0.0 && t_max >= t_min) {
+        return Err(format!(
+            "t from {t_min} to {t_max} is not 0 <= t_min <= t_max"
+        ));
+    }
+    Ok(())
 }
 
 pub fn write_triangles(path: &Path, triangles: &[[f32; 9]]) -> Result<(), FileError> {

@@ -42,6 +42,12 @@ pub struct Exported {
 pub fn export(scene: &Scene, dir: &Path, n: usize) -> Result<Exported, String> {
     let mut triangles_only = scene.clone();
     let spheres_dropped = std::mem::take(&mut triangles_only.spheres).len();
+    if triangles_only.mesh.is_empty() {
+        return Err(format!(
+            "{}: the scene has no triangles; the files hold triangles only ({spheres_dropped} spheres would be left out), so there is nothing to export",
+            scene.name
+        ));
+    }
     let finder = BackendConfig::NATIVE
         .build(&triangles_only)
         .map_err(|e| e.to_string())?;
@@ -57,6 +63,11 @@ pub fn export(scene: &Scene, dir: &Path, n: usize) -> Result<Exported, String> {
     let mut sets = Vec::new();
     for set in ray_sets(&triangles_only, &finder, n) {
         let flat: Vec<FlatRay> = set.rays.iter().map(Ray::flat).collect();
+        if flat.is_empty() {
+            // A set of nothing (light rays where nothing is lit) would be
+            // refused by `bench`: it is left out.
+            continue;
+        }
         let name = file_name(set.kind);
         file::write_rays(&dir.join(&name), set.query, &flat).map_err(|e| e.to_string())?;
         sets.push((name, flat.len()));

@@ -315,6 +315,18 @@ fn triangle_file(count: u64, floats: &[f32]) -> Vec<u8> {
     bytes
 }
 
+/// A closest-hit ray file (docs/rays.md) of `rays`.
+fn ray_file(rays: &[[f32; 8]]) -> Vec<u8> {
+    let mut bytes = b"HYBRAYS1".to_vec();
+    bytes.extend_from_slice(&0u32.to_le_bytes());
+    bytes.extend_from_slice(&0u32.to_le_bytes());
+    bytes.extend_from_slice(&(rays.len() as u64).to_le_bytes());
+    for x in rays.as_flattened() {
+        bytes.extend_from_slice(&x.to_le_bytes());
+    }
+    bytes
+}
+
 #[test]
 fn ray_files_that_break_their_promise_are_refused_in_one_line() {
     let dir = common::scratch("hostile-rays");
@@ -344,6 +356,40 @@ fn ray_files_that_break_their_promise_are_refused_in_one_line() {
         &["bench", "set", "--min-rounds", "9", "--max-rounds", "5"],
         &["--min-rounds 9"],
     );
+    // Rays Embree would assert on, and a set of none: one line naming the
+    // file and the ray, before any timing.
+    let good = [0.2f32, 0.2, -1.0, 0.0, 0.0, 1.0, 0.0, f32::INFINITY];
+    let cases: [(usize, f32, &str); 7] = [
+        (0, f32::NAN, "origin"),
+        (1, 1e30, "origin"),
+        (4, f32::INFINITY, "direction"),
+        (6, -1.0, "t from"),
+        (6, f32::NAN, "t from"),
+        (7, -2.0, "t from"),
+        (5, 0.0, "direction"),
+    ];
+    for (field, value, why) in cases {
+        let mut bad = good;
+        bad[field] = value;
+        if why == "direction" && value == 0.0 {
+            bad[3..6].fill(0.0);
+        }
+        std::fs::write(set.join("camera.rays"), ray_file(&[good, bad])).unwrap();
+        fails(&dir, &["bench", "set"], &["camera.rays", "ray 1:", why]);
+    }
+    std::fs::write(set.join("camera.rays"), ray_file(&[])).unwrap();
+    fails(&dir, &["bench", "set"], &["camera.rays", "no rays"]);
+    std::fs::remove_file(set.join("camera.rays")).unwrap();
+    // A scene of spheres alone has nothing the files can hold.
+    if let Some(spheres) = common::shared("basic/sphere_diffuse.dae") {
+        let spheres = spheres.to_string_lossy().into_owned();
+        fails(
+            &dir,
+            &["rays", "export", "out", &spheres],
+            &["no triangles"],
+        );
+        assert!(!dir.join("out").exists(), "the export made its folder");
+    }
     // An export of a scene that does not load writes nothing.
     fails(
         &dir,
