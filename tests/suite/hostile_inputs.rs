@@ -430,3 +430,32 @@ fn an_exported_set_replays_with_the_same_hits_on_every_backend() {
         );
     }
 }
+
+/// Issue 46, class 7: a library override naming the other Embree major
+/// version is refused in one line (it segfaulted after loading), and so is
+/// a library that is no Embree at all; nothing is written.
+#[test]
+fn an_embree_override_of_the_wrong_version_is_refused() {
+    let dir = common::scratch("hostile-embree-override");
+    for (variable, library, accel, expected) in [
+        (
+            "HYBRID_EMBREE4",
+            "libembree3.so.3",
+            "embree4",
+            "is not Embree 4",
+        ),
+        ("HYBRID_EMBREE3", "libc.so.6", "embree3", "is not Embree 3"),
+    ] {
+        let o = Command::new(env!("CARGO_BIN_EXE_hybrid"))
+            .args(["render", "--accel", accel, "-r", "8", "6", "-f", "x.png"])
+            .env(variable, library)
+            .current_dir(&dir)
+            .output()
+            .expect("run hybrid");
+        let stderr = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{variable}={library}: {stderr}");
+        assert_eq!(stderr.lines().count(), 1, "{stderr}");
+        assert!(stderr.contains(expected), "{stderr}");
+        assert!(!dir.join("x.png").exists());
+    }
+}

@@ -48,6 +48,41 @@ pub fn open(candidates: &[OsString]) -> Result<(Library, String), String> {
     Err(errors.join("; "))
 }
 
+/// `Err` unless `library` is the Embree major version `major`, judged by
+/// a function only that version exports (`marker`) and one only the other
+/// exports (`foreign`): Embree 4 added `rtcForwardIntersect1` and removed
+/// Embree 3's `rtcIntersect1M`. A library of the other version would take
+/// the table's calls with other struct layouts and crash; an override
+/// (`HYBRID_EMBREE3`, `HYBRID_EMBREE4`) naming the wrong one is refused
+/// here instead.
+pub fn check_version(
+    library: &Library,
+    path: &str,
+    major: u32,
+    marker: &str,
+    foreign: &str,
+) -> Result<(), String> {
+    let has = |name: &str| {
+        let symbol = format!("{name}\0");
+        // SAFETY: only looks the name up (dlsym); nothing is called or read
+        // through the address.
+        unsafe { library.get::<*const c_void>(symbol.as_bytes()) }.is_ok()
+    };
+    if has(marker) && !has(foreign) {
+        return Ok(());
+    }
+    let found = if has(foreign) {
+        "another Embree major version"
+    } else {
+        "not Embree"
+    };
+    Err(format!(
+        "{path} is not Embree {major}: it {} {marker} and {} {foreign} ({found})",
+        if has(marker) { "exports" } else { "lacks" },
+        if has(foreign) { "exports" } else { "lacks" },
+    ))
+}
+
 /// Where a device's last error is kept until the next check reads it, and
 /// the bytes Embree holds on the device (its memory monitor callback).
 pub struct ErrorSink {

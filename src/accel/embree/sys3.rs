@@ -56,9 +56,11 @@ pub fn api() -> Result<&'static Embree3, String> {
         let (lib, path) = library::open(&names).map_err(|e| {
             format!("Embree 3 is not installed ({e}); run `apt-get install -y libembree-dev` (Debian 12), or set HYBRID_EMBREE3 to a libembree3.so.3")
         })?;
+        library::check_version(&lib, &path, 3, "rtcIntersect1M", "rtcForwardIntersect1")?;
         // SAFETY: the library is Embree 3 (found by its SONAME or named by
-        // the user), whose exported functions have the signatures of the
-        // headers the table was generated from.
+        // the user, and checked by its exports just above), whose exported
+        // functions have the signatures of the headers the table was
+        // generated from.
         let table = unsafe { raw::Embree3::from_library(lib) }
             .map_err(|e| format!("{path} is not Embree 3: {e}"))?;
         Ok(Embree3(table))

@@ -178,9 +178,11 @@ pub fn api() -> Result<&'static Embree4, String> {
         let (lib, path) = library::open(&names).map_err(|e| {
             format!("Embree 4 is not installed ({e}); run `bash scripts/setup.sh` (Debian 12: Embree 4.4 from the embreex wheel; Debian 13: apt-get install -y libembree-dev), or set HYBRID_EMBREE4 to a libembree4.so.4")
         })?;
+        library::check_version(&lib, &path, 4, "rtcForwardIntersect1", "rtcIntersect1M")?;
         // SAFETY: the library is Embree 4 (found by its SONAME or named by
-        // the user); the table's signatures are its headers' with enums as
-        // u32 and the structs widened as described above.
+        // the user, and checked by its exports just above); the table's
+        // signatures are its headers' with enums as u32 and the structs
+        // widened as described above.
         let table =
             unsafe { Table::load(lib) }.map_err(|e| format!("{path} is not Embree 4: {e}"))?;
         Ok(Embree4 { table })
