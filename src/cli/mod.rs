@@ -123,7 +123,12 @@ pub fn main() -> i32 {
             return if e.use_stderr() { 2 } else { 0 };
         }
         Err(e) => {
-            let args: Vec<String> = std::env::args().skip(1).collect();
+            // Lossy: only read for the message; a non-UTF-8 argument
+            // (a Latin-1 file name) must not panic here.
+            let args: Vec<String> = std::env::args_os()
+                .skip(1)
+                .map(|a| a.to_string_lossy().into_owned())
+                .collect();
             let message = match unknown_course_flag(&e, &args) {
                 Some(message) => message,
                 None => one_line(&e.render().to_string()),
@@ -144,7 +149,7 @@ pub fn main() -> i32 {
         Command::Rays(args) => bench::run_rays(&args).map(|()| true),
         Command::Bench(args) => bench::run_bench(&args).map(|()| true),
         Command::Series(args) => {
-            let raw: Vec<String> = std::env::args().skip(2).collect();
+            let raw: Vec<std::ffi::OsString> = std::env::args_os().skip(2).collect();
             series::run(&args, &raw).map(|()| true)
         }
     };

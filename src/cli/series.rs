@@ -3,6 +3,7 @@
 //! and render time under each tile, the fixed options in the title), so a
 //! write-up's figure is one command.
 
+use std::ffi::OsString;
 use std::path::{Path, PathBuf};
 
 use clap::{Args, Parser};
@@ -263,7 +264,7 @@ struct Timed {
     mean_samples: f64,
 }
 
-pub fn run(args: &SeriesArgs, raw: &[String]) -> Result<(), String> {
+pub fn run(args: &SeriesArgs, raw: &[OsString]) -> Result<(), String> {
     let axes = axes(&args.vary)?;
     let varies_scene = axes.iter().any(|a| a.name == "scene");
     let scene_name = if varies_scene {
@@ -334,12 +335,14 @@ pub fn run(args: &SeriesArgs, raw: &[String]) -> Result<(), String> {
     }
     let mut tiles = Vec::new();
     for values in &combinations {
-        let mut argv = vec!["hybrid series".to_string()];
+        // The command line as given (file names need not be UTF-8), then
+        // this tile's values.
+        let mut argv = vec![OsString::from("hybrid series")];
         argv.extend(raw.iter().cloned());
         for (axis, value) in axes.iter().zip(values) {
             if axis.name != "scene" {
-                argv.push(flag(&axis.name));
-                argv.push(value.clone());
+                argv.push(flag(&axis.name).into());
+                argv.push(value.into());
             }
         }
         let what = axes
@@ -438,7 +441,11 @@ pub fn run(args: &SeriesArgs, raw: &[String]) -> Result<(), String> {
         });
         films.push((path, rate, rendered.output.film, map));
     }
-    let mut fixed = fixed_options(raw, args.render.input.scene.as_deref());
+    let lossy: Vec<String> = raw
+        .iter()
+        .map(|a| a.to_string_lossy().into_owned())
+        .collect();
+    let mut fixed = fixed_options(&lossy, args.render.input.scene.as_deref());
     // Without a scene the default scene's converged settings fill in what
     // was not given (as for `hybrid render`); the title says which.
     let preset = tiles

@@ -459,3 +459,57 @@ fn an_embree_override_of_the_wrong_version_is_refused() {
         assert!(!dir.join("x.png").exists());
     }
 }
+
+/// Issue 46, class 4: arguments that are not UTF-8 (a Latin-1 file name)
+/// are file names like any other: `render` and `series` take such a
+/// scene, and a mistyped command line quoting one is one error line
+/// (the error path panicked on `std::env::args`).
+#[test]
+fn arguments_that_are_not_utf8_are_file_names_not_panics() {
+    use std::ffi::OsStr;
+    use std::os::unix::ffi::OsStrExt;
+    let dir = common::scratch("hostile-latin1");
+    let name = OsStr::from_bytes(b"sc\xe9ne.dae");
+    std::fs::copy(
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/tiny.dae"),
+        dir.join(name),
+    )
+    .unwrap();
+    let hybrid = |args: &[&OsStr]| {
+        Command::new(env!("CARGO_BIN_EXE_hybrid"))
+            .args(args)
+            .current_dir(&dir)
+            .stdin(Stdio::null())
+            .output()
+            .expect("run hybrid")
+    };
+    let os = |s: &'static str| OsStr::new(s);
+    let o = hybrid(&[
+        os("render"),
+        name,
+        os("-r"),
+        os("8"),
+        os("6"),
+        os("-f"),
+        os("a.png"),
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{o:?}");
+    let o = hybrid(&[
+        os("series"),
+        os("--vary"),
+        os("s=1,2"),
+        os("-r"),
+        os("8"),
+        os("6"),
+        name,
+        os("-f"),
+        os("sheet.png"),
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{o:?}");
+    assert!(dir.join("sheet.png").is_file());
+    let o = hybrid(&[os("rende"), name]);
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{stderr}");
+    assert_eq!(stderr.lines().count(), 1, "{stderr}");
+    assert!(stderr.starts_with("hybrid: error:"), "{stderr}");
+}
