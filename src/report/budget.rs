@@ -198,6 +198,25 @@ pub fn report_scenes(quick: bool) -> Vec<ReportScene> {
         .collect()
 }
 
+/// Every shared scene the report reads (`quick` or not), each once: they
+/// are all loaded before any measuring, so a missing or broken one ends
+/// the run at once rather than after minutes of work.
+pub fn shared_scenes(quick: bool) -> Vec<&'static str> {
+    let mut all: Vec<&'static str> = report_scenes(quick)
+        .iter()
+        .filter_map(|s| match s.source {
+            Source::Shared(rel) => Some(rel),
+            Source::SphereCloud { .. } => None,
+        })
+        .collect();
+    all.extend(BRUTE_FORCE_SCENES);
+    all.extend(NORMALS_SCENES);
+    all.extend([SERIES_SCENE, SAMPLES_SCENE, super::scaling::SCANNED]);
+    all.sort_unstable();
+    all.dedup();
+    all
+}
+
 /// Above this many primitives only the compared backends' builds are
 /// timed (a high-quality Embree build of 10^6 triangles takes seconds).
 pub const ALL_BUILDS_UP_TO: usize = 200_000;

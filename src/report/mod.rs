@@ -93,6 +93,14 @@ pub fn run(options: &ReportOptions, log: &mut dyn FnMut(&str)) -> Result<(), Str
         budget.gallery = tile;
     }
     let threads = threads_or_all(options.threads);
+    for rel in budget::shared_scenes(options.quick) {
+        load(&options.scenes_dir, rel).map_err(|e| {
+            format!(
+                "the report needs {rel} from --scenes {}: {e}",
+                options.scenes_dir.display()
+            )
+        })?;
+    }
     let out = &options.out_dir;
     std::fs::create_dir_all(out)
         .map_err(|e| format!("{}: cannot create the folder: {e}", out.display()))?;

@@ -513,3 +513,31 @@ fn arguments_that_are_not_utf8_are_file_names_not_panics() {
     assert_eq!(stderr.lines().count(), 1, "{stderr}");
     assert!(stderr.starts_with("hybrid: error:"), "{stderr}");
 }
+
+/// Issue 46, class 9: `report` checks every scene it will read before any
+/// work: a `--scenes` folder without one of them is one error line naming
+/// it, and the new `--out` folder is not made.
+#[test]
+fn the_report_finds_a_missing_scene_before_it_measures() {
+    let Some(shared) = common::scenes_dir() else {
+        return;
+    };
+    let dir = common::scratch("hostile-report-scenes");
+    let partial = dir.join("scenes");
+    std::fs::create_dir_all(&partial).unwrap();
+    // Every folder of the shared scenes but keenan/.
+    for sub in ["sky", "meshedit", "basic"] {
+        std::os::unix::fs::symlink(shared.join(sub), partial.join(sub)).unwrap();
+    }
+    let empty = dir.join("empty");
+    std::fs::create_dir_all(&empty).unwrap();
+    for scenes in [&partial, &empty] {
+        let scenes = scenes.to_string_lossy().into_owned();
+        fails(
+            &dir,
+            &["report", "--quick", "--scenes", &scenes, "--out", "new"],
+            &["keenan/banana.dae"],
+        );
+        assert!(!dir.join("new").exists(), "the report made its folder");
+    }
+}
