@@ -417,6 +417,34 @@ fn errors_name_the_right_place() {
     );
 }
 
+/// Issue 46, class 8: radiance the renderer cannot mean (a negative light
+/// or albedo, one near the float range) is an error naming the element,
+/// as it is for environment maps; it rendered negative or infinite pixels.
+#[test]
+fn negative_or_huge_colours_are_errors() {
+    let dir = common::scratch("hostile-colours");
+    for (name, from, to) in [
+        (
+            "negative-area.dae",
+            "<area><color>4 4 4</color>",
+            "<area><color>-4 4 4</color>",
+        ),
+        (
+            "huge-area.dae",
+            "<area><color>4 4 4</color>",
+            "<area><color>3e38 4 4</color>",
+        ),
+    ] {
+        assert!(TINY.contains(from), "{from}");
+        let file = scene(&dir, name, |t| t.replacen(from, to, 1));
+        fails(
+            &dir,
+            &["render", "-f", "o.png", &file],
+            &[name, "<color>", "finite, not negative"],
+        );
+    }
+}
+
 /// Classes 13 and 14: oddities the course accepts are loaded, with one
 /// warning line each naming what and where.
 #[test]

@@ -52,6 +52,25 @@ impl<'a, 'input> Loader<'a, 'input> {
         Ok(Vec3::new(v[0], v[1], v[2]))
     }
 
+    /// A colour (radiance, intensity, albedo, reflectance): three numbers,
+    /// each finite, not negative and at most [`MAX_COLOUR`]. A negative
+    /// light or albedo would put negative radiance in the image, and one
+    /// near the float range infinite pixels; the environment map's loader
+    /// refuses the same values.
+    pub(super) fn colour(&self, node: Node) -> Result<Vec3> {
+        let c = self.vec3(node)?;
+        if c.to_array().iter().all(|x| (0.0..=MAX_COLOUR).contains(x)) {
+            return Ok(c);
+        }
+        Err(self.error(
+            node,
+            format!(
+                "colour {} {} {}: each number must be finite, not negative and at most {MAX_COLOUR:e}",
+                c.x, c.y, c.z
+            ),
+        ))
+    }
+
     pub(super) fn integers(&self, node: Node) -> Result<Vec<u32>> {
         node.text()
             .unwrap_or("")
@@ -67,3 +86,8 @@ impl<'a, 'input> Loader<'a, 'input> {
             .collect()
     }
 }
+
+/// The largest colour component a scene may give: far above any real
+/// light or albedo, and far enough below the float range that a path's
+/// throughput over a sample's density stays finite.
+pub const MAX_COLOUR: f32 = 1e18;

@@ -31,9 +31,20 @@ impl<'a, 'input> Loader<'a, 'input> {
     pub(super) fn effect(&self, effect: Node) -> Result<Material> {
         if let Some(kind) = cgl_technique(effect).and_then(|t| elements(t).next()) {
             let colour = |name: &str| -> Result<Vec3> {
-                self.vec3(
+                self.colour(
                     child(kind, name).ok_or_else(|| self.error(kind, format!("no <{name}>")))?,
                 )
+            };
+            // The complex index of refraction is no colour: only finite.
+            let index = |name: &str| -> Result<Vec3> {
+                let el =
+                    child(kind, name).ok_or_else(|| self.error(kind, format!("no <{name}>")))?;
+                let v = self.vec3(el)?;
+                if v.is_finite() {
+                    Ok(v)
+                } else {
+                    Err(self.error(el, format!("<{name}> {v} is not finite")))
+                }
             };
             let scalar = |name: &str, default: f32| -> Result<f32> {
                 match child(kind, name) {
@@ -61,8 +72,8 @@ impl<'a, 'input> Loader<'a, 'input> {
                 },
                 "microfacet" => Material::Microfacet {
                     alpha: scalar("alpha", 0.5)?.max(1e-3),
-                    eta: colour("eta")?,
-                    k: colour("k")?,
+                    eta: index("eta")?,
+                    k: index("k")?,
                 },
                 other => return Err(self.error(kind, format!("unknown CGL material <{other}>"))),
             });
@@ -75,13 +86,8 @@ impl<'a, 'input> Loader<'a, 'input> {
             .and_then(|s| child(s, "diffuse"))
             .and_then(|d| child(d, "color"));
         match diffuse {
-            Some(c) => {
-                let v = self.floats(c, None)?;
-                if v.len() < 3 {
-                    return Err(self.error(c, "a colour needs three numbers"));
-                }
-                Ok(Material::lambertian(Vec3::new(v[0], v[1], v[2])))
-            }
+            // `color` is r g b a; the alpha is not read.
+            Some(c) => Ok(Material::lambertian(self.colour(c)?)),
             None => Ok(Material::DEFAULT),
         }
     }
@@ -99,7 +105,7 @@ impl<'a, 'input> Loader<'a, 'input> {
             .next()
             .ok_or_else(|| self.error(technique, "empty light technique"))?;
         let color_el = child(kind, "color").ok_or_else(|| self.error(kind, "no <color>"))?;
-        let color = self.vec3(color_el)?;
+        let color = self.colour(color_el)?;
         let at = |p: Vec3| world.transform_point3(p);
         let light = match kind.tag_name().name() {
             "area" => {
