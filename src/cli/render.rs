@@ -2,7 +2,7 @@
 
 use crate::accel::native::cpu::Isa;
 use std::io::IsTerminal;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use clap::Args;
@@ -393,6 +393,10 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
     if settings.adaptive.is_some() {
         check_writable(&rate_path(&output)).map_err(|e| e.to_string())?;
     }
+    if let Some(camera) = &args.save_camera {
+        check_writable(camera).map_err(|e| format!("--save-camera: {e}"))?;
+    }
+    outputs_spare_inputs(args, &output, settings.adaptive.is_some())?;
     let preset = args.preset_options();
     if !preset.is_empty() {
         // The same render named in full, as it works from any folder: the
@@ -504,8 +508,9 @@ pub fn render_with(args: &RenderArgs, settings: &RenderSettings) -> Result<Rende
 
     if let Some(path) = &args.save_camera {
         let text = settings.camera_for(&scene).to_course().text();
-        std::fs::write(path, text)
-            .map_err(|e| format!("{}: cannot write the camera file: {e}", path.display()))?;
+        // Written as images are: under a temporary name, then renamed.
+        write_files(&[(path.as_path(), crate::render::film::ImageFile::Text(&text))])
+            .map_err(|e| format!("--save-camera: {e}"))?;
         say!("wrote the camera to {}", path.display());
     }
 
@@ -544,4 +549,51 @@ pub fn render_with(args: &RenderArgs, settings: &RenderSettings) -> Result<Rende
         build_seconds: stats.build_ms / 1e3,
         triangles: scene.triangle_count(),
     })
+}
+
+/// `Err` when an output of the run (`-f`, its rate image, `--save-camera`)
+/// names one of its inputs (the scene, `-e`, `-c`) or another output:
+/// `--save-camera my.dae`, the flag taken for a switch, wrote camera text
+/// over the scene (issue 46, class 6).
+fn outputs_spare_inputs(args: &RenderArgs, output: &Path, adaptive: bool) -> Result<(), String> {
+    let mut outputs = vec![("-f", output.to_path_buf())];
+    if adaptive {
+        outputs.push(("the rate image", rate_path(output)));
+    }
+    if let Some(camera) = &args.save_camera {
+        outputs.push(("--save-camera", camera.clone()));
+    }
+    let inputs = [
+        ("the scene", args.input.scene.as_ref()),
+        ("-e", args.environment.as_ref()),
+        ("-c", args.camera_file.as_ref()),
+    ];
+    for (k, (flag, out)) in outputs.iter().enumerate() {
+        for (name, input) in inputs.iter().filter_map(|(n, i)| Some((n, (*i)?))) {
+            if same_file(out, input) {
+                return Err(format!(
+                    "{flag} {} names {name} of this run; it would be overwritten",
+                    out.display()
+                ));
+            }
+        }
+        for (other, earlier) in &outputs[..k] {
+            if std::path::absolute(out).ok() == std::path::absolute(earlier).ok() {
+                return Err(format!(
+                    "{flag} {} is also {other}: give each output its own name",
+                    out.display()
+                ));
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Whether `a` and `b` are the same existing file (device and inode).
+fn same_file(a: &Path, b: &Path) -> bool {
+    use std::os::unix::fs::MetadataExt;
+    match (std::fs::metadata(a), std::fs::metadata(b)) {
+        (Ok(x), Ok(y)) => x.dev() == y.dev() && x.ino() == y.ino(),
+        _ => false,
+    }
 }

@@ -541,3 +541,35 @@ fn the_report_finds_a_missing_scene_before_it_measures() {
         assert!(!dir.join("new").exists(), "the report made its folder");
     }
 }
+
+/// Issue 46, class 6: no output of a run may name one of its inputs or
+/// another output, and `--save-camera` follows `-f`'s rules: the scene,
+/// the map and a FIFO are left as they were, in one error line each.
+#[test]
+fn outputs_never_replace_inputs_or_block() {
+    let dir = common::scratch("hostile-outputs");
+    let tiny = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/tiny.dae");
+    std::fs::copy(&tiny, dir.join("t.dae")).unwrap();
+    let o = run(&dir, &["render", "t.dae", "-r", "8", "6", "-f", "map.exr"]);
+    assert_eq!(o.code, Some(0), "{}", o.describe());
+    let (scene, map) = (
+        std::fs::read(dir.join("t.dae")).unwrap(),
+        std::fs::read(dir.join("map.exr")).unwrap(),
+    );
+    let f = fifo(&dir, "pipe");
+    for (args, needle) in [
+        (&["--save-camera", "t.dae"][..], "names the scene"),
+        (&["-e", "map.exr", "-f", "map.exr"][..], "names -e"),
+        (&["--save-camera", &f][..], "FIFO"),
+        (&["--save-camera", "o.png", "-f", "o.png"][..], "is also -f"),
+    ] {
+        let mut all = vec!["render", "t.dae", "-r", "8", "6"];
+        all.extend_from_slice(args);
+        if !args.contains(&"-f") {
+            all.extend_from_slice(&["-f", "o.png"]);
+        }
+        fails(&dir, &all, &[needle]);
+    }
+    assert_eq!(std::fs::read(dir.join("t.dae")).unwrap(), scene);
+    assert_eq!(std::fs::read(dir.join("map.exr")).unwrap(), map);
+}
