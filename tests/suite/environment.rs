@@ -299,7 +299,7 @@ fn a_black_background_hides_the_sky_from_camera_rays_but_keeps_its_light() {
         .save(&dir.join("sky.exr"))
         .expect("write the map");
     let corner_and_mean = |background: &str| {
-        let out = format!("{background}.exr");
+        let out = format!("{background}-render.exr");
         succeeds(
             &[
                 "render",
