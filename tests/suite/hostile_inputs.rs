@@ -573,3 +573,22 @@ fn outputs_never_replace_inputs_or_block() {
     assert_eq!(std::fs::read(dir.join("t.dae")).unwrap(), scene);
     assert_eq!(std::fs::read(dir.join("map.exr")).unwrap(), map);
 }
+
+/// Issue 46, class 2: counts the options allow but the machine cannot
+/// hold are refused before any work with the memory they would take
+/// (under the suite's 1 GiB address-space cap: the largest `rays export`
+/// aborted on allocation, and `parity --rays` had no bound).
+#[test]
+fn counts_beyond_the_memory_are_refused_before_any_work() {
+    let dir = common::scratch("hostile-counts");
+    let tiny = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/tiny.dae");
+    let tiny = tiny.to_string_lossy().into_owned();
+    for args in [
+        &["rays", "export", "out", &tiny, "--rays", "67108864"][..],
+        &["parity", "--rays", "30000000", &tiny][..],
+        &["parity", "--hard", "--rays", "4000000000"][..],
+    ] {
+        fails(&dir, args, &["--rays", "GiB of memory"]);
+    }
+    assert!(!dir.join("out").exists(), "the export made its folder");
+}
