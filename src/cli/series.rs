@@ -374,6 +374,33 @@ pub fn run(args: &SeriesArgs, raw: &[OsString]) -> Result<(), String> {
         });
     }
 
+    // Every file the series will write, checked before any render: each
+    // name distinct (two scenes of one file name, a value given twice) and
+    // writable (no directory, link or device in the way).
+    let mut outputs: Vec<PathBuf> = Vec::new();
+    for tile in &tiles {
+        let shown: Vec<&str> = axes
+            .iter()
+            .zip(&tile.values)
+            .map(|(a, v)| a.shown(v))
+            .collect();
+        let path = single(&shown);
+        if tile.settings.adaptive.is_some() {
+            outputs.push(rate_path(&path));
+        }
+        outputs.push(path);
+    }
+    outputs.extend([sheet_path.clone(), beside(".md"), beside(".csv")]);
+    for (k, path) in outputs.iter().enumerate() {
+        if outputs[..k].contains(path) {
+            return Err(format!(
+                "{}: two of the series' files would have this name (a value given twice, or two scenes of one file name): give distinct values",
+                path.display()
+            ));
+        }
+        check_writable(path).map_err(|e| e.to_string())?;
+    }
+
     // The options every value shares, warned about once.
     if let Some(first) = tiles.first() {
         for warning in first.render.warnings() {

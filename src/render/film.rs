@@ -437,13 +437,23 @@ pub fn write_files(files: &[(&Path, ImageFile)]) -> Result<(), FilmError> {
         Ok(())
     })();
     let result = result.and_then(|()| {
+        // Every name is checked before any is replaced, so a directory in
+        // the way of the last file cannot cost the user the first ones.
+        for (k, (path, _)) in files.iter().enumerate() {
+            refuse_special(path).map_err(|e| fail(path, e))?;
+            if files[..k].iter().any(|(p, _)| p == path) {
+                return Err(fail(path, "named twice in one write".into()));
+            }
+        }
+        let existed: Vec<bool> = files.iter().map(|(p, _)| p.exists()).collect();
         for (k, ((path, _), tmp)) in files.iter().zip(&written).enumerate() {
-            if let Err(e) = refuse_special(path)
-                .map_err(std::io::Error::other)
-                .and_then(|()| std::fs::rename(tmp, path))
-            {
-                for (done, _) in &files[..k] {
-                    let _ = std::fs::remove_file(done);
+            if let Err(e) = std::fs::rename(tmp, path) {
+                // Only files this call created are removed; one that
+                // replaced an older file stays (the older one is gone).
+                for ((done, _), &old) in files[..k].iter().zip(&existed) {
+                    if !old {
+                        let _ = std::fs::remove_file(done);
+                    }
                 }
                 return Err(fail(path, e.to_string()));
             }

@@ -592,3 +592,49 @@ fn counts_beyond_the_memory_are_refused_before_any_work() {
     }
     assert!(!dir.join("out").exists(), "the export made its folder");
 }
+
+/// Issue 46, class 5: `series` checks every file it will write before any
+/// render, and never removes a file it did not create: an existing
+/// `SHEET.csv` directory, a value given twice and two scenes of one file
+/// name are errors, and the user's files are left as they were.
+#[test]
+fn a_series_never_deletes_the_users_files() {
+    let dir = common::scratch("hostile-series-files");
+    let tiny = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/tiny.dae");
+    for sub in ["a", "b"] {
+        std::fs::create_dir_all(dir.join(sub)).unwrap();
+        std::fs::copy(&tiny, dir.join(sub).join("t.dae")).unwrap();
+    }
+    // The user's own files under the names the series would write.
+    std::fs::write(dir.join("sheet.png"), b"the user's sheet").unwrap();
+    std::fs::write(dir.join("sheet_1.png"), b"the user's tile").unwrap();
+    std::fs::create_dir_all(dir.join("sheet.csv")).unwrap();
+    let small = ["-r", "8", "6", "a/t.dae", "-f", "sheet.png"];
+    let with = |vary: &'static str| {
+        let mut args = vec!["series", "--vary", vary];
+        args.extend_from_slice(&small);
+        args
+    };
+    fails(&dir, &with("s=1,2"), &["sheet.csv", "directory"]);
+    std::fs::remove_dir(dir.join("sheet.csv")).unwrap();
+    fails(&dir, &with("s=1,1"), &["two of the series' files"]);
+    let scenes = [
+        "series",
+        "--vary",
+        "scene=a/t.dae,b/t.dae",
+        "-r",
+        "8",
+        "6",
+        "-f",
+        "sheet.png",
+    ];
+    fails(&dir, &scenes, &["two of the series' files"]);
+    assert_eq!(
+        std::fs::read(dir.join("sheet.png")).unwrap(),
+        b"the user's sheet"
+    );
+    assert_eq!(
+        std::fs::read(dir.join("sheet_1.png")).unwrap(),
+        b"the user's tile"
+    );
+}
