@@ -7,7 +7,7 @@
 
 pub mod file;
 
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 use crate::accel::config::compared;
 use crate::accel::{Backend, BackendConfig};
@@ -51,8 +51,23 @@ pub fn export(scene: &Scene, dir: &Path, n: usize) -> Result<Exported, String> {
     let finder = BackendConfig::NATIVE
         .build(&triangles_only)
         .map_err(|e| e.to_string())?;
-    std::fs::create_dir_all(dir)
-        .map_err(|e| format!("{}: cannot create the folder: {e}", dir.display()))?;
+    let staging = Staging::new(dir)?;
+    let (triangles, sets) = write_export(&triangles_only, &finder, staging.path(), n)?;
+    staging.publish()?;
+    Ok(Exported {
+        triangles,
+        spheres_dropped,
+        sets,
+    })
+}
+
+/// Writes the triangles and every non-empty ray set of `scene` into `dir`.
+fn write_export(
+    triangles_only: &Scene,
+    finder: &Backend,
+    dir: &Path,
+    n: usize,
+) -> Result<(usize, Vec<(String, usize)>), String> {
     let corners: Vec<[f32; 9]> = (0..triangles_only.mesh.len())
         .map(|i| {
             let [a, b, c] = triangles_only.mesh.corners(i);
@@ -61,7 +76,7 @@ pub fn export(scene: &Scene, dir: &Path, n: usize) -> Result<Exported, String> {
         .collect();
     file::write_triangles(&dir.join(TRIANGLES), &corners).map_err(|e| e.to_string())?;
     let mut sets = Vec::new();
-    for set in ray_sets(&triangles_only, &finder, n) {
+    for set in ray_sets(triangles_only, finder, n) {
         let flat: Vec<FlatRay> = set.rays.iter().map(Ray::flat).collect();
         if flat.is_empty() {
             // A set of nothing (light rays where nothing is lit) would be
@@ -72,11 +87,83 @@ pub fn export(scene: &Scene, dir: &Path, n: usize) -> Result<Exported, String> {
         file::write_rays(&dir.join(&name), set.query, &flat).map_err(|e| e.to_string())?;
         sets.push((name, flat.len()));
     }
-    Ok(Exported {
-        triangles: corners.len(),
-        spheres_dropped,
-        sets,
-    })
+    Ok((corners.len(), sets))
+}
+
+/// An export is written whole into a hidden folder beside `DIR` and only
+/// then takes `DIR`'s place, so a failed or interrupted export never
+/// leaves new triangles beside old rays (issue 46, class 3). An existing
+/// `DIR` is replaced only when it holds nothing but an export's files.
+struct Staging {
+    dir: PathBuf,
+    tmp: PathBuf,
+    published: bool,
+}
+
+impl Staging {
+    fn new(dir: &Path) -> Result<Staging, String> {
+        if dir.exists() {
+            let entries = std::fs::read_dir(dir)
+                .map_err(|e| format!("{}: cannot read the folder: {e}", dir.display()))?;
+            for entry in entries.flatten() {
+                let name = entry.file_name().to_string_lossy().into_owned();
+                let ours = name == TRIANGLES || name.ends_with(".rays");
+                if !ours || !entry.file_type().is_ok_and(|t| t.is_file()) {
+                    return Err(format!(
+                        "{}: holds {name}, which no export writes: export into a new folder or an export's own",
+                        dir.display()
+                    ));
+                }
+            }
+        }
+        let name = dir
+            .file_name()
+            .map_or("export".into(), |n| n.to_string_lossy().into_owned());
+        let tmp = dir.with_file_name(format!(".{name}.partial-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&tmp);
+        std::fs::create_dir_all(&tmp)
+            .map_err(|e| format!("{}: cannot create the folder: {e}", dir.display()))?;
+        Ok(Staging {
+            dir: dir.to_path_buf(),
+            tmp,
+            published: false,
+        })
+    }
+
+    fn path(&self) -> &Path {
+        &self.tmp
+    }
+
+    /// Puts the finished export in `DIR`'s place; an old export is moved
+    /// aside first and removed after.
+    fn publish(mut self) -> Result<(), String> {
+        let dir = self.dir.clone();
+        let fail = |e: std::io::Error| format!("{}: cannot replace the folder: {e}", dir.display());
+        let old = self.tmp.with_extension("old");
+        let had_old = self.dir.exists();
+        if had_old {
+            std::fs::rename(&self.dir, &old).map_err(fail)?;
+        }
+        if let Err(e) = std::fs::rename(&self.tmp, &self.dir) {
+            if had_old {
+                let _ = std::fs::rename(&old, &self.dir);
+            }
+            return Err(fail(e));
+        }
+        self.published = true;
+        if had_old {
+            let _ = std::fs::remove_dir_all(&old);
+        }
+        Ok(())
+    }
+}
+
+impl Drop for Staging {
+    fn drop(&mut self) {
+        if !self.published {
+            let _ = std::fs::remove_dir_all(&self.tmp);
+        }
+    }
 }
 
 /// The scene of a triangles file: one mesh of the default material, built

@@ -638,3 +638,43 @@ fn a_series_never_deletes_the_users_files() {
         b"the user's tile"
     );
 }
+
+/// Issue 46, class 3: an export is written whole beside its folder and
+/// then takes its place: a re-export replaces every file of the old one
+/// (never new triangles beside old rays), a folder holding anything an
+/// export does not write is refused untouched, and no hidden partial
+/// folder is left either way.
+#[test]
+fn an_export_replaces_an_older_one_whole_or_not_at_all() {
+    let dir = common::scratch("hostile-export-atomic");
+    let tiny = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/tiny.dae");
+    let tiny = tiny.to_string_lossy().into_owned();
+    let count = |kind: &str| {
+        let bytes = std::fs::read(dir.join("set").join(format!("{kind}.rays"))).unwrap();
+        u64::from_le_bytes(bytes[16..24].try_into().unwrap())
+    };
+    for rays in ["3000", "1000"] {
+        let o = run(&dir, &["rays", "export", "set", &tiny, "--rays", rays]);
+        assert_eq!(o.code, Some(0), "{}", o.describe());
+        assert_eq!(count("camera"), rays.parse::<u64>().unwrap());
+        assert_eq!(count("incoherent"), rays.parse::<u64>().unwrap());
+    }
+    std::fs::write(dir.join("set").join("notes.txt"), b"mine").unwrap();
+    fails(
+        &dir,
+        &["rays", "export", "set", &tiny, "--rays", "2000"],
+        &["notes.txt", "no export writes"],
+    );
+    assert_eq!(count("camera"), 1000);
+    assert_eq!(
+        std::fs::read(dir.join("set").join("notes.txt")).unwrap(),
+        b"mine"
+    );
+    let hidden: Vec<_> = std::fs::read_dir(&dir)
+        .unwrap()
+        .flatten()
+        .filter(|e| e.file_name().to_string_lossy().starts_with('.'))
+        .map(|e| e.file_name())
+        .collect();
+    assert!(hidden.is_empty(), "left behind: {hidden:?}");
+}
