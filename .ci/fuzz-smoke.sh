@@ -7,7 +7,7 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 seconds="${FUZZ_SECONDS:-10}"
 command -v cargo-fuzz >/dev/null 2>&1 || cargo install --quiet --locked cargo-fuzz
-for target in load render embree camera part environment cli; do
+for target in load render embree camera part environment cli rays; do
   log=$(mktemp)
   if ! bash fuzz/run.sh "$target" "$seconds" >"$log" 2>&1; then
     tail -n 40 "$log"

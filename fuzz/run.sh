@@ -5,7 +5,8 @@
 # render), embree (loader + both Embree versions' builds and traces),
 # camera (camera files), part (merge parts: EXR headers, the hybrid.part
 # attribute, channels, and their merge), environment (environment maps),
-# cli (command lines, parsed and checked as before any work).
+# cli (command lines, parsed and checked as before any work), rays (ray
+# files, checked and traced by every backend as bench traces them).
 # Needs cargo-fuzz (`cargo install cargo-fuzz`) and a nightly compiler or
 # RUSTC_BOOTSTRAP=1 (set here). Findings land in fuzz/artifacts/TARGET/.
 set -euo pipefail
@@ -38,6 +39,13 @@ case "$target" in
     ;;
   environment)
     (cd .. && cargo run --release --quiet --example sky_map -- "fuzz/$corpus/sky.exr")
+    ;;
+  rays)
+    seed_with_binary
+    tmp=$(mktemp -d)
+    "$hybrid" rays export "$tmp/set" ../tests/data/tiny.dae --rays 64 >/dev/null
+    cp "$tmp"/set/*.rays "$corpus/"
+    rm -rf "$tmp"
     ;;
   cli)
     printf 'render\0-r\0008\0006\0-s\0004' >"$corpus/render"

@@ -70,6 +70,16 @@ fn write(
 /// and the floats. The size must be exactly what the header promises.
 fn read(path: &Path, magic: &[u8; 8], per: usize) -> Result<(u32, Vec<f32>), FileError> {
     let bytes = crate::input::read_regular(path, MAX_BYTES).map_err(|e| bad(path, e))?;
+    parse(&bytes, path, magic, per)
+}
+
+/// [`read`] of bytes already in memory, `path` naming them in errors.
+fn parse(
+    bytes: &[u8],
+    path: &Path,
+    magic: &[u8; 8],
+    per: usize,
+) -> Result<(u32, Vec<f32>), FileError> {
     if bytes.len() < HEADER || &bytes[..8] != magic {
         return Err(bad(
             path,
@@ -109,7 +119,14 @@ pub fn write_rays(path: &Path, query: Query, rays: &[FlatRay]) -> Result<(), Fil
 }
 
 pub fn read_rays(path: &Path) -> Result<(Query, Vec<FlatRay>), FileError> {
-    let (tag, floats) = read(path, RAYS_MAGIC, 8)?;
+    let bytes = crate::input::read_regular(path, MAX_BYTES).map_err(|e| bad(path, e))?;
+    parse_rays(&bytes, path)
+}
+
+/// A ray file's bytes as [`read_rays`] checks them (the fuzz target `rays`
+/// feeds it arbitrary bytes).
+pub fn parse_rays(bytes: &[u8], path: &Path) -> Result<(Query, Vec<FlatRay>), FileError> {
+    let (tag, floats) = parse(bytes, path, RAYS_MAGIC, 8)?;
     let query = match tag {
         0 => Query::Closest,
         1 => Query::Occluded,
