@@ -201,6 +201,11 @@ struct Axis {
     values: Vec<String>,
 }
 
+/// Each axis's value of a tile as captions and file names show it.
+fn shown_values<'v>(axes: &[Axis], values: &'v [String]) -> Vec<&'v str> {
+    axes.iter().zip(values).map(|(a, v)| a.shown(v)).collect()
+}
+
 impl Axis {
     /// A value as captions and file names show it: a scene by its file
     /// name without `.dae`.
@@ -379,11 +384,7 @@ pub fn run(args: &SeriesArgs, raw: &[OsString]) -> Result<(), String> {
     // writable (no directory, link or device in the way).
     let mut outputs: Vec<PathBuf> = Vec::new();
     for tile in &tiles {
-        let shown: Vec<&str> = axes
-            .iter()
-            .zip(&tile.values)
-            .map(|(a, v)| a.shown(v))
-            .collect();
+        let shown = shown_values(&axes, &tile.values);
         let path = single(&shown);
         if tile.settings.adaptive.is_some() {
             outputs.push(rate_path(&path));
@@ -411,11 +412,7 @@ pub fn run(args: &SeriesArgs, raw: &[OsString]) -> Result<(), String> {
     let mut films = Vec::new();
     let mut timed = Vec::new();
     for tile in &tiles {
-        let shown: Vec<&str> = axes
-            .iter()
-            .zip(&tile.values)
-            .map(|(a, v)| a.shown(v))
-            .collect();
+        let shown = shown_values(&axes, &tile.values);
         let what = axes
             .iter()
             .zip(&shown)
