@@ -155,13 +155,12 @@ pub fn run(options: &ReportOptions, log: &mut dyn FnMut(&str)) -> Result<(), Str
     let (packets_md, packets_json) = scenes::packets_section(&per_scene);
     let brute_table = brute::table(&brute_rows);
     let mut md = format!(
-        "# hybrid: native BVH against Embree\n\nMeasured on {} ({}; ISA {}), {}, hybrid {}, {}, on {}. Settings: {} run, {} rays per ray kind, medians of {} warmed-up repeats ({} per frame; range in parentheses: min–max), all-threads figures on {}.\n\n",
+        "# hybrid: native BVH against Embree\n\nMeasured on {} ({}; ISA {}), {}, hybrid {}, on {}. Settings: {} run, {} rays per ray kind, medians of {} warmed-up repeats ({} per frame; range in parentheses: min–max), all-threads figures on {}.\n\n",
         machine.cpu,
         counted(machine.cores, "core"),
         machine.isa.join(" "),
         machine.rustc,
         machine.crate_version,
-        embree_version,
         machine.date,
         if options.quick { "quick" } else { "full" },
         budget.rays,
