@@ -72,13 +72,17 @@ impl<'s> Candidate<'s> {
 }
 
 /// Whether `batch` is an answer `single` allows in a scene of size
-/// `scene_size` (its bounds' largest extent): the same bits when `exact`,
-/// else within [`BATCH_T_RELATIVE`].
+/// `scene_size` (its bounds' largest extent): the same bits of `t`,
+/// primitive and barycentrics when `exact`, else within
+/// [`BATCH_T_RELATIVE`].
 pub fn batch_agrees(single: Option<Hit>, batch: Option<Hit>, exact: bool, scene_size: f32) -> bool {
     let t_floor = 0.01 * scene_size;
     match (single, batch) {
         (None, None) => true,
-        (Some(s), Some(b)) if exact => s == b,
+        (Some(s), Some(b)) if exact => {
+            (s.t.to_bits(), s.prim, s.u.to_bits(), s.v.to_bits())
+                == (b.t.to_bits(), b.prim, b.u.to_bits(), b.v.to_bits())
+        }
         (Some(s), Some(b)) => (s.t - b.t).abs() <= BATCH_T_RELATIVE * s.t.abs().max(t_floor),
         _ => false,
     }

@@ -40,19 +40,6 @@ fn ray_sets(scene: &Scene, reference: &impl Accel) -> Vec<(&'static str, Vec<Ray
     ]
 }
 
-/// The same bits (native), or what `parity::batch_agrees` allows Embree.
-fn same_hit(a: &Option<Hit>, b: &Option<Hit>, exact: bool, scene_size: f32) -> bool {
-    match (a, b) {
-        (Some(a), Some(b)) if exact => {
-            a.t.to_bits() == b.t.to_bits()
-                && a.prim == b.prim
-                && a.u.to_bits() == b.u.to_bits()
-                && a.v.to_bits() == b.v.to_bits()
-        }
-        _ => batch_agrees(*a, *b, exact, scene_size),
-    }
-}
-
 /// Every ray's batch answers against its single-ray answers: closest hit
 /// and occlusion; also checks the batch counts every ray.
 fn check(scene_name: &str, config: BackendConfig, scene: &Scene) {
@@ -101,7 +88,7 @@ fn check(scene_name: &str, config: BackendConfig, scene: &Scene) {
             "{kind}: rays counted"
         );
         let differ: Vec<usize> = (0..rays.len())
-            .filter(|&i| !same_hit(&single[i], &hits[i], exact, scene_size))
+            .filter(|&i| !batch_agrees(single[i], hits[i], exact, scene_size))
             .collect();
         assert!(
             differ.is_empty(),

@@ -68,18 +68,20 @@ pub fn check_version(
         // through the address.
         unsafe { library.get::<*const c_void>(symbol.as_bytes()) }.is_ok()
     };
-    if has(marker) && !has(foreign) {
+    let (ours, theirs) = (has(marker), has(foreign));
+    if ours && !theirs {
         return Ok(());
     }
-    let found = if has(foreign) {
-        "another Embree major version"
-    } else {
-        "not Embree"
-    };
+    let says = |exported: bool| if exported { "exports" } else { "lacks" };
     Err(format!(
-        "{path} is not Embree {major}: it {} {marker} and {} {foreign} ({found})",
-        if has(marker) { "exports" } else { "lacks" },
-        if has(foreign) { "exports" } else { "lacks" },
+        "{path} is not Embree {major}: it {} {marker} and {} {foreign} ({})",
+        says(ours),
+        says(theirs),
+        if theirs {
+            "another Embree major version"
+        } else {
+            "not Embree"
+        }
     ))
 }
 

@@ -84,25 +84,16 @@ pub unsafe trait Width: Copy {
     unsafe fn load(p: &[f32; MAX_LANES]) -> Self::V;
     unsafe fn store(p: &mut [f32; MAX_LANES], v: Self::V);
     /// The smallest and the largest of the lanes in `mask` (which is not
-    /// empty).
+    /// empty). The smallest one by one is only the tests' reference for
+    /// [`Width::min_each`].
+    #[cfg(test)]
     unsafe fn min_of(v: Self::V, mask: u32) -> f32;
     unsafe fn max_of(v: Self::V, mask: u32) -> f32;
-    /// [`Width::min_of`] of each of `v`: the smallest of its lanes in
-    /// `mask` (not empty).
-    ///
-    /// A plain loop, not `v.map(..)`: `array::map` runs the closure inside
-    /// core's `try_map`, which has no target features, so the intrinsics
-    /// in it could not be inlined and became calls passing vectors through
-    /// memory; eight-ray packets ran at a quarter of single rays (issue
-    /// 49, seen on Zen 3 and on Sapphire Rapids with `HYBRID_ISA=avx2`).
-    #[inline(always)]
-    unsafe fn min_each<const K: usize>(v: [Self::V; K], mask: u32) -> [f32; K] {
-        let mut out = [0.0; K];
-        for k in 0..K {
-            out[k] = Self::min_of(v[k], mask);
-        }
-        out
-    }
+    /// The smallest lane in `mask` (not empty) of each of `v`, all at
+    /// once. Lane code builds arrays with loops,
+    /// never `map` or `from_fn`, whose closures run in library code without
+    /// the width's target features (docs/design.md, Packets).
+    unsafe fn min_each<const K: usize>(v: [Self::V; K], mask: u32) -> [f32; K];
     /// The eight floats of each of up to `N` rays (`Ray` is eight floats,
     /// `repr(C)`), one vector per field; lanes past the rays repeat the
     /// last.
@@ -300,6 +291,7 @@ unsafe impl Width for X8 {
     unsafe fn store(p: &mut [f32; MAX_LANES], v: __m256) {
         _mm256_storeu_ps(p.as_mut_ptr(), v)
     }
+    #[cfg(test)]
     #[inline(always)]
     unsafe fn min_of(v: __m256, mask: u32) -> f32 {
         let m = X8::select(mask, _mm256_set1_ps(f32::INFINITY), v);
@@ -462,6 +454,7 @@ unsafe impl Width for X16 {
     unsafe fn store(p: &mut [f32; MAX_LANES], v: __m512) {
         _mm512_storeu_ps(p.as_mut_ptr(), v)
     }
+    #[cfg(test)]
     #[inline(always)]
     unsafe fn min_of(v: __m512, mask: u32) -> f32 {
         _mm512_reduce_min_ps(X16::select(mask, _mm512_set1_ps(f32::INFINITY), v))
