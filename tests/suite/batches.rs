@@ -65,19 +65,14 @@ fn check(scene_name: &str, config: BackendConfig, scene: &Scene) {
         let mut hits = vec![None; rays.len()];
         accel.closest_hits(&rays, &mut hits, &mut batch_counters);
         // Camera rays go as packets (one interval test per node for eight
-        // rays): the node tests counted fall well below single rays'.
-        if config == BackendConfig::NATIVE && kind == "camera" && simd() {
-            let mut single_counters = TraceCounters::default();
-            for r in &rays {
-                accel.closest_hit(r, &mut single_counters);
-            }
-            let mut packet_counters = TraceCounters::default();
-            accel.closest_hits(&rays, &mut hits, &mut packet_counters);
+        // rays), and so do the light rays' occlusion queries (one light,
+        // origins side by side): the node tests counted fall well below
+        // single rays'.
+        if config == BackendConfig::NATIVE && matches!(kind, "camera" | "light") && simd() {
+            let (alone, packets) = box_tests(&accel, &rays, kind == "light");
             assert!(
-                packet_counters.box_tests * 4 < single_counters.box_tests * 3,
-                "{scene_name}: camera rays not traced as packets ({} box tests against {} alone)",
-                packet_counters.box_tests,
-                single_counters.box_tests
+                packets * 4 < alone * 3,
+                "{scene_name}: {kind} rays not traced as packets ({packets} box tests against {alone} alone)"
             );
         }
         let mut occluded = vec![false; rays.len()];
@@ -116,6 +111,24 @@ fn check(scene_name: &str, config: BackendConfig, scene: &Scene) {
             "{scene_name} {kind}: nothing hit"
         );
     }
+}
+
+/// Box tests counted for `rays` one at a time and as one batch query,
+/// closest hits or (`occlusion`) any hits.
+fn box_tests(accel: &impl Accel, rays: &[Ray], occlusion: bool) -> (u64, u64) {
+    let (mut alone, mut batch) = (TraceCounters::default(), TraceCounters::default());
+    if occlusion {
+        for r in rays {
+            accel.occluded(r, &mut alone);
+        }
+        accel.occluded_all(rays, &mut vec![false; rays.len()], &mut batch);
+    } else {
+        for r in rays {
+            accel.closest_hit(r, &mut alone);
+        }
+        accel.closest_hits(rays, &mut vec![None; rays.len()], &mut batch);
+    }
+    (alone.box_tests, batch.box_tests)
 }
 
 /// Whether the native packet kernels run here (the CPU has AVX2 and

@@ -111,11 +111,14 @@ impl Default for NativeOptions {
     }
 }
 
-/// Rays of one octant that a group (of sixteen or eight) needs at least to
-/// be traced as a packet; fewer go one at a time. Three to six measured
-/// alike on CBbunny's camera and light rays with eight-ray packets, within
-/// the machine's noise (not yet measured at sixteen).
-pub const MIN_PACKET: u32 = 4;
+/// Rays of one octant that a group of `lanes` needs at least to be traced
+/// as a packet: three quarters of its lanes; fewer go one at a time. With
+/// four of eight, AVX2 packets of diffuse bounce rays ran at 0.85x single
+/// rays (CBbunny and maxplanck); with six, 0.95-0.97x, camera rays alike
+/// and light rays alike or faster (docs/experiments.md, stop 43).
+pub const fn min_packet(lanes: usize) -> u32 {
+    (lanes as u32 * 3).div_ceil(4)
+}
 
 /// A batch query asks for the rays of the group this many groups ahead
 /// before tracing each group (CBbunny camera packets 1.01x, maxplanck
@@ -710,7 +713,7 @@ impl Query for Occluded {
 
 impl NativeBvh {
     /// A group of up to `W::N` rays of a batch query: the traceable ones
-    /// of one octant as a packet when there are [`MIN_PACKET`] of them,
+    /// of one octant as a packet when there are [`min_packet`] of them,
     /// the others one at a time.
     ///
     /// # Safety
@@ -725,15 +728,7 @@ impl NativeBvh {
         out: &mut [Q::Answer],
         counters: &mut TraceCounters,
     ) {
-        let Some(prepared) = PacketRays::<W>::load(rays) else {
-            // No packet can form: the rays go alone, without the rest of
-            // the lanes' set-up (incoherent batches ran at 0.80-0.87x
-            // single rays with it, AVX2 kernels, CBbunny).
-            for (ray, answer) in rays.iter().zip(out.iter_mut()) {
-                *answer = Q::alone(self, ray, counters);
-            }
-            return;
-        };
+        let prepared = PacketRays::<W>::load(rays);
         let mut rest = prepared.traceable;
         let lanes = (1u32 << out.len()) - 1;
         for i in lanes_of(lanes & !rest) {
@@ -743,7 +738,7 @@ impl NativeBvh {
         while rest != 0 {
             let group = prepared.same_octant(rest);
             rest &= !group;
-            if group.count_ones() >= MIN_PACKET {
+            if group.count_ones() >= min_packet(W::N) {
                 let p = Packet {
                     rays: &prepared,
                     mask: group,
@@ -832,6 +827,15 @@ impl NativeBvh {
                 unsafe {
                     std::arch::x86_64::_mm_prefetch::<{ std::arch::x86_64::_MM_HINT_T0 }>(line)
                 };
+            }
+            if !packet::packet_can_form(group_rays, min_packet(lanes)) {
+                // No packet can form: the rays go alone, as single-ray
+                // queries do, outside the lanes' code (traced from inside
+                // it, incoherent batches ran at 0.93x single rays).
+                for (ray, answer) in group_rays.iter().zip(out.iter_mut()) {
+                    *answer = Q::alone(self, ray, counters);
+                }
+                continue;
             }
             // SAFETY: the kernels were chosen by the token that proves
             // their CPU features; the triangle tree is not empty (checked

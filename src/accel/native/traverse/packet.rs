@@ -37,7 +37,6 @@
 use std::arch::x86_64::*;
 
 use super::*;
-use crate::accel::native::MIN_PACKET;
 use crate::geom::Ray;
 
 /// Most rays in a packet: the lane arrays' length for either width.
@@ -72,8 +71,6 @@ pub unsafe trait Width: Copy {
     unsafe fn abs(a: Self::V) -> Self::V;
     /// `m`'s magnitude with `s`'s sign.
     unsafe fn copysign(m: Self::V, s: Self::V) -> Self::V;
-    /// The lanes whose sign bit is set.
-    unsafe fn sign_bits(a: Self::V) -> u32;
     unsafe fn le(a: Self::V, b: Self::V) -> u32;
     unsafe fn lt(a: Self::V, b: Self::V) -> u32;
     unsafe fn gt(a: Self::V, b: Self::V) -> u32;
@@ -260,10 +257,6 @@ unsafe impl Width for X8 {
         _mm256_or_ps(_mm256_andnot_ps(sign, m), _mm256_and_ps(sign, s))
     }
     #[inline(always)]
-    unsafe fn sign_bits(a: __m256) -> u32 {
-        _mm256_movemask_ps(a) as u32
-    }
-    #[inline(always)]
     unsafe fn le(a: __m256, b: __m256) -> u32 {
         _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(a, b)) as u32
     }
@@ -416,14 +409,6 @@ unsafe impl Width for X16 {
         _mm512_castsi512_ps(_mm512_or_si512(
             _mm512_andnot_si512(sign, _mm512_castps_si512(m)),
             _mm512_and_si512(sign, _mm512_castps_si512(s)),
-        ))
-    }
-    #[inline(always)]
-    unsafe fn sign_bits(a: __m512) -> u32 {
-        // A float's sign bit is its bits' as a signed integer.
-        u32::from(_mm512_cmplt_epi32_mask(
-            _mm512_castps_si512(a),
-            _mm512_setzero_si512(),
         ))
     }
     #[inline(always)]
@@ -580,39 +565,38 @@ fn same_octant(negative: [u32; 3], group: u32) -> u32 {
     same
 }
 
-/// Whether [`MIN_PACKET`] of the lanes in `lanes` share an octant.
+/// Whether `min` of `rays` share an octant, read from the
+/// directions' sign bits (the octants the packet code sorts traceable rays
+/// by) in plain scalar code, so that a group where no packet can form
+/// costs a few instructions a ray and never the lanes' set-up.
 #[inline(always)]
-fn packet_can_form(negative: [u32; 3], lanes: u32) -> bool {
-    let mut rest = lanes;
-    while rest.count_ones() >= MIN_PACKET {
-        let group = same_octant(negative, rest);
-        if group.count_ones() >= MIN_PACKET {
-            return true;
-        }
-        rest &= !group;
+pub fn packet_can_form(rays: &[Ray], min: u32) -> bool {
+    debug_assert!(rays.len() <= MAX_LANES && (1..=MAX_LANES as u32).contains(&min));
+    // One byte per octant counts its rays (at most sixteen, so no byte
+    // carries into the next); adding 128 - min to every byte sets the
+    // top bit of those that reached `min`.
+    let mut counts = 0u64;
+    for ray in rays {
+        let sign = |x: f32| (x.to_bits() >> 31) as u64;
+        let octant = sign(ray.dir.x) | sign(ray.dir.y) << 1 | sign(ray.dir.z) << 2;
+        counts += 1 << (8 * octant);
     }
-    false
+    let threshold = (128 - u64::from(min)) * 0x0101_0101_0101_0101;
+    (counts + threshold) & 0x8080_8080_8080_8080 != 0
 }
 
 impl<W: Width> PacketRays<W> {
-    /// The first `W::N` of `rays` (at least one) as lanes, or `None` when
-    /// no [`MIN_PACKET`] of them share an octant: then no packet can form,
-    /// and the rest of the set-up (three divisions, the box test's
-    /// constants) would be paid for nothing. The octants are read from
-    /// the directions' sign bits, which are the octants the packet code
-    /// sorts traceable rays by.
+    /// The first `W::N` of `rays` (at least one) as lanes. Callers ask
+    /// [`packet_can_form`] first: without a packet the set-up (three
+    /// divisions, the box test's constants) is paid for nothing.
     ///
     /// # Safety
     /// Only from `W`'s `#[target_feature]` code ([`Width`]).
     #[inline(always)]
-    pub unsafe fn load(rays: &[Ray]) -> Option<PacketRays<W>> {
+    pub unsafe fn load(rays: &[Ray]) -> PacketRays<W> {
         let [ox, oy, oz, dx, dy, dz, t_min, t_max] = W::fields(rays);
         let (origin, dir) = ([ox, oy, oz], [dx, dy, dz]);
         let lanes = (1u32 << rays.len().min(W::N)) - 1;
-        let signs = [W::sign_bits(dx), W::sign_bits(dy), W::sign_bits(dz)];
-        if !packet_can_form(signs, lanes) {
-            return None;
-        }
         // Ray::traceable_vectors, lane by lane.
         let limit = W::splat(crate::geom::ray::COORDINATE_LIMIT);
         let zero = W::splat(0.0);
@@ -646,7 +630,7 @@ impl<W: Width> PacketRays<W> {
             fits &= W::lt(W::abs(fast[0][a]), infinity) & W::lt(W::abs(fast[2][a]), infinity);
             negative[a] = W::lt(safe, zero);
         }
-        Some(PacketRays {
+        PacketRays {
             lanes: Lanes {
                 origin,
                 dir,
@@ -663,7 +647,7 @@ impl<W: Width> PacketRays<W> {
             traceable: traceable & moves & lanes,
             fits,
             negative,
-        })
+        }
     }
 
     /// The lanes of `group` whose directions lie in the octant of its
@@ -1138,6 +1122,49 @@ mod tests {
             X16::store(&mut a, v);
             a
         })
+    }
+
+    /// The byte counters agree with counting each octant's rays, for
+    /// every threshold and group size, signed zeros included.
+    #[test]
+    fn packets_form_where_an_octant_holds_enough_rays() {
+        let mut state = 0x9e37_79b9_u32;
+        let mut next = || {
+            state ^= state << 13;
+            state ^= state >> 17;
+            state ^= state << 5;
+            state
+        };
+        let component = |bits: u32| match bits % 3 {
+            0 => 0.5,
+            1 => -0.5,
+            _ => -0.0,
+        };
+        for _ in 0..2000 {
+            let n = 1 + next() as usize % MAX_LANES;
+            let rays: Vec<Ray> = (0..n)
+                .map(|_| {
+                    let (x, y, z) = (next(), next(), next());
+                    Ray::new(
+                        glam::Vec3::ZERO,
+                        glam::Vec3::new(component(x), component(y), component(z)),
+                    )
+                })
+                .collect();
+            let mut counts = [0u32; 8];
+            for r in &rays {
+                let o = (0..3).fold(0, |o, a| o | (r.dir[a].is_sign_negative() as usize) << a);
+                counts[o] += 1;
+            }
+            for min in 1..=MAX_LANES as u32 {
+                let expected = counts.iter().any(|&c| c >= min);
+                assert_eq!(
+                    packet_can_form(&rays, min),
+                    expected,
+                    "{counts:?}, min {min}"
+                );
+            }
+        }
     }
 
     #[test]
