@@ -51,6 +51,8 @@ case "$target" in
     printf 'render\0-r\0008\0006\0-s\0004' >"$corpus/render"
     printf 'series\0--vary\0s=1,2,...,8\0--columns\0003' >"$corpus/series"
     printf 'merge\0-f\0out.png\0part.exr' >"$corpus/merge"
+    printf 'series\0--vary\0scene=a.dae,b.dae\0-f\0sheet.png' >"$corpus/series-outputs"
+    printf 'rays\0export\0set\0../tests/data/tiny.dae\0--rays\00064' >"$corpus/export"
     ;;
   *)
     echo "fuzz/run.sh: unknown target '$target'" >&2

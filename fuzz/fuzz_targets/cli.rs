@@ -1,5 +1,6 @@
 //! Arbitrary command lines: parsed and checked as `hybrid` does before any
-//! work, one error or a valid set of settings, never a panic.
+//! work (a render's settings, a series' tiles and output names, an
+//! export's memory and folder), one error or a valid plan, never a panic.
 #![no_main]
 
 use libfuzzer_sys::fuzz_target;

@@ -90,6 +90,36 @@ fn write_export(
     Ok((corners.len(), sets))
 }
 
+/// Whether an export may write `dir`: a new folder, or one that holds
+/// nothing but an export's files (which it replaces whole). Reads only.
+pub fn check_export_dir(dir: &Path) -> Result<(), String> {
+    if dir.as_os_str().is_empty() {
+        return Err("rays export: DIR is empty: name the folder to write".into());
+    }
+    if !dir.exists() {
+        return Ok(());
+    }
+    if !dir.is_dir() {
+        return Err(format!(
+            "{}: is not a folder: export into a new folder or an export's own",
+            dir.display()
+        ));
+    }
+    let entries = std::fs::read_dir(dir)
+        .map_err(|e| format!("{}: cannot read the folder: {e}", dir.display()))?;
+    for entry in entries.flatten() {
+        let name = entry.file_name().to_string_lossy().into_owned();
+        let ours = name == TRIANGLES || name.ends_with(".rays");
+        if !ours || !entry.file_type().is_ok_and(|t| t.is_file()) {
+            return Err(format!(
+                "{}: holds {name}, which no export writes: export into a new folder or an export's own",
+                dir.display()
+            ));
+        }
+    }
+    Ok(())
+}
+
 /// An export is written whole into a hidden folder beside `DIR` and only
 /// then takes `DIR`'s place, so a failed or interrupted export never
 /// leaves new triangles beside old rays (issue 46, class 3). An existing
@@ -102,20 +132,7 @@ struct Staging {
 
 impl Staging {
     fn new(dir: &Path) -> Result<Staging, String> {
-        if dir.exists() {
-            let entries = std::fs::read_dir(dir)
-                .map_err(|e| format!("{}: cannot read the folder: {e}", dir.display()))?;
-            for entry in entries.flatten() {
-                let name = entry.file_name().to_string_lossy().into_owned();
-                let ours = name == TRIANGLES || name.ends_with(".rays");
-                if !ours || !entry.file_type().is_ok_and(|t| t.is_file()) {
-                    return Err(format!(
-                        "{}: holds {name}, which no export writes: export into a new folder or an export's own",
-                        dir.display()
-                    ));
-                }
-            }
-        }
+        check_export_dir(dir)?;
         let name = dir
             .file_name()
             .map_or("export".into(), |n| n.to_string_lossy().into_owned());

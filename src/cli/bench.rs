@@ -55,7 +55,9 @@ pub struct BenchArgs {
     pub batched: bool,
 }
 
-pub fn run_rays(args: &RaysArgs) -> Result<(), String> {
+/// Checks a `rays` command line as [`run_rays`] does before any work: the
+/// memory the rays take and the folder an export writes.
+pub fn check_rays(args: &RaysArgs) -> Result<(), String> {
     match &args.command {
         RaysCommand::Export(a) => {
             // Every kind's rays are held at once, as rays and as file
@@ -64,6 +66,15 @@ pub fn run_rays(args: &RaysArgs) -> Result<(), String> {
                 &format!("--rays {}", a.rays),
                 a.rays.saturating_mul(EXPORT_BYTES_PER_RAY),
             )?;
+            crate::bench::check_export_dir(&a.dir)
+        }
+    }
+}
+
+pub fn run_rays(args: &RaysArgs) -> Result<(), String> {
+    check_rays(args)?;
+    match &args.command {
+        RaysCommand::Export(a) => {
             let scene = a.input.load(NormalMode::Smooth)?;
             let out = export(&scene, &a.dir, a.rays as usize)?;
             if out.spheres_dropped > 0 {

@@ -97,14 +97,20 @@ pub fn report_line(kind: &str, message: &str) {
 }
 
 /// Parses a command line (without the program's name) and checks what can
-/// be checked before any work: clap's parse, then a render's settings. The
-/// fuzz target `cli` feeds it arbitrary arguments.
+/// be checked before any work: clap's parse, then a render's settings, a
+/// series' plan (every tile's options, every output name) and an export's
+/// memory and folder. The fuzz target `cli` feeds it arbitrary arguments.
 pub fn check_command_line(args: &[String]) -> Result<(), String> {
     let cli =
         Cli::try_parse_from(std::iter::once("hybrid".to_string()).chain(args.iter().cloned()))
             .map_err(|e| one_line(&e.render().to_string()))?;
     match cli.command {
         Command::Render(args) => args.settings().map(|_| ()).map_err(String::from),
+        Command::Series(series) => {
+            let raw: Vec<std::ffi::OsString> = args.iter().skip(1).map(Into::into).collect();
+            series::check(&series, &raw)
+        }
+        Command::Rays(rays) => bench::check_rays(&rays),
         _ => Ok(()),
     }
 }

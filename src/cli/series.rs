@@ -269,7 +269,38 @@ struct Timed {
     mean_samples: f64,
 }
 
-pub fn run(args: &SeriesArgs, raw: &[OsString]) -> Result<(), String> {
+/// What a series renders and writes, decided and checked before any
+/// render: every tile's options parsed, every varied scene loaded, every
+/// output name distinct and writable.
+struct Plan {
+    axes: Vec<Axis>,
+    scene_name: String,
+    sheet_path: PathBuf,
+    stem: String,
+    tiles: Vec<Tile>,
+}
+
+impl Plan {
+    /// The file beside the sheet whose name ends in `suffix`.
+    fn beside(&self, suffix: &str) -> PathBuf {
+        self.sheet_path
+            .with_file_name(format!("{}{suffix}", self.stem))
+    }
+
+    /// The image file of the tile showing `shown`.
+    fn single(&self, shown: &[&str]) -> PathBuf {
+        let key: Vec<String> = shown.iter().map(|v| v.replace(['/', ' '], "_")).collect();
+        self.beside(&format!("_{}.png", key.join("_")))
+    }
+}
+
+/// Checks a series' command line as [`run`] does before its first render
+/// (for `cli::check_command_line`, which the fuzz target calls).
+pub fn check(args: &SeriesArgs, raw: &[OsString]) -> Result<(), String> {
+    plan(args, raw).map(|_| ())
+}
+
+fn plan(args: &SeriesArgs, raw: &[OsString]) -> Result<Plan, String> {
     let axes = axes(&args.vary)?;
     let varies_scene = axes.iter().any(|a| a.name == "scene");
     let scene_name = if varies_scene {
@@ -310,11 +341,6 @@ pub fn run(args: &SeriesArgs, raw: &[OsString]) -> Result<(), String> {
         .and_then(|s| s.to_str())
         .unwrap_or("series")
         .to_string();
-    let beside = |suffix: &str| sheet_path.with_file_name(format!("{stem}{suffix}"));
-    let single = |shown: &[&str]| {
-        let key: Vec<String> = shown.iter().map(|v| v.replace(['/', ' '], "_")).collect();
-        beside(&format!("_{}.png", key.join("_")))
-    };
 
     // Every render's options are checked, and every scene loaded, before
     // any render, so a bad value fails first.
@@ -379,19 +405,30 @@ pub fn run(args: &SeriesArgs, raw: &[OsString]) -> Result<(), String> {
         });
     }
 
+    let plan = Plan {
+        axes,
+        scene_name,
+        sheet_path,
+        stem,
+        tiles,
+    };
     // Every file the series will write, checked before any render: each
     // name distinct (two scenes of one file name, a value given twice) and
     // writable (no directory, link or device in the way).
     let mut outputs: Vec<PathBuf> = Vec::new();
-    for tile in &tiles {
-        let shown = shown_values(&axes, &tile.values);
-        let path = single(&shown);
+    for tile in &plan.tiles {
+        let shown = shown_values(&plan.axes, &tile.values);
+        let path = plan.single(&shown);
         if tile.settings.adaptive.is_some() {
             outputs.push(rate_path(&path));
         }
         outputs.push(path);
     }
-    outputs.extend([sheet_path.clone(), beside(".md"), beside(".csv")]);
+    outputs.extend([
+        plan.sheet_path.clone(),
+        plan.beside(".md"),
+        plan.beside(".csv"),
+    ]);
     for (k, path) in outputs.iter().enumerate() {
         if outputs[..k].contains(path) {
             return Err(format!(
@@ -401,6 +438,20 @@ pub fn run(args: &SeriesArgs, raw: &[OsString]) -> Result<(), String> {
         }
         check_writable(path).map_err(|e| e.to_string())?;
     }
+    Ok(plan)
+}
+
+/// Renders a series: every tile, then the sheet, its tables and each
+/// tile's image, all written together once every render is done.
+pub fn run(args: &SeriesArgs, raw: &[OsString]) -> Result<(), String> {
+    let plan = plan(args, raw)?;
+    let Plan {
+        axes,
+        scene_name,
+        sheet_path,
+        tiles,
+        ..
+    } = &plan;
 
     // The options every value shares, warned about once.
     if let Some(first) = tiles.first() {
@@ -411,7 +462,7 @@ pub fn run(args: &SeriesArgs, raw: &[OsString]) -> Result<(), String> {
     let mut pictures = Vec::new();
     let mut films = Vec::new();
     let mut timed = Vec::new();
-    for tile in &tiles {
+    for tile in tiles {
         let shown = shown_values(&axes, &tile.values);
         let what = axes
             .iter()
@@ -446,7 +497,7 @@ pub fn run(args: &SeriesArgs, raw: &[OsString]) -> Result<(), String> {
                 super::duration(out.seconds)
             ),
         ));
-        let path = single(&shown);
+        let path = plan.single(&shown);
         // Adaptive sampling: the rate image follows its render, on the
         // sheet and as its own file.
         let rate = tile.settings.adaptive.is_some().then(|| {
@@ -508,7 +559,7 @@ pub fn run(args: &SeriesArgs, raw: &[OsString]) -> Result<(), String> {
     );
     let contact = sheet(&title, &pictures, columns)?;
     let (markdown, csv) = tables(&axes, &timed, &title);
-    let (md_path, csv_path) = (beside(".md"), beside(".csv"));
+    let (md_path, csv_path) = (plan.beside(".md"), plan.beside(".csv"));
     let mut files = Vec::new();
     for (path, rate, film, map) in &films {
         files.push((

@@ -678,3 +678,61 @@ fn an_export_replaces_an_older_one_whole_or_not_at_all() {
         .collect();
     assert!(hidden.is_empty(), "left behind: {hidden:?}");
 }
+
+/// Issue 46: the check before any work, which the `cli` fuzz target calls,
+/// reaches a series' output plan and an export's folder. It refuses what
+/// `series` and `rays export` refuse before their first render or ray,
+/// accepts their good command lines, and writes nothing either way.
+#[test]
+fn the_command_line_check_plans_series_and_export_outputs() {
+    use hybrid::cli::check_command_line;
+    let dir = common::scratch("hostile-check-outputs");
+    let tiny = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/tiny.dae");
+    let path = |p: &Path| p.to_string_lossy().into_owned();
+    let sheet = path(&dir.join("sheet.png"));
+    let series = |vary: &str| -> Vec<String> {
+        [
+            "series",
+            "--vary",
+            vary,
+            "-r",
+            "8",
+            "6",
+            &path(&tiny),
+            "-f",
+            &sheet,
+        ]
+        .map(String::from)
+        .to_vec()
+    };
+    std::fs::create_dir_all(dir.join("sheet.csv")).unwrap();
+    let refused = check_command_line(&series("s=1,2")).unwrap_err();
+    assert!(refused.contains("sheet.csv"), "{refused}");
+    std::fs::remove_dir(dir.join("sheet.csv")).unwrap();
+    let refused = check_command_line(&series("s=1,1")).unwrap_err();
+    assert!(refused.contains("two of the series' files"), "{refused}");
+    check_command_line(&series("s=1,2")).expect("a good series");
+
+    let old = dir.join("old");
+    std::fs::create_dir_all(&old).unwrap();
+    std::fs::write(old.join("notes.txt"), b"the user's notes").unwrap();
+    let export = |into: &Path| -> Vec<String> {
+        ["rays", "export", &path(into), &path(&tiny)]
+            .map(String::from)
+            .to_vec()
+    };
+    let refused = check_command_line(&export(&old)).unwrap_err();
+    assert!(refused.contains("notes.txt"), "{refused}");
+    check_command_line(&export(&dir.join("new"))).expect("a new folder");
+
+    let mut left: Vec<String> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    left.sort();
+    assert_eq!(left, ["old"], "the checks wrote files");
+    assert_eq!(
+        std::fs::read(old.join("notes.txt")).unwrap(),
+        b"the user's notes"
+    );
+}
