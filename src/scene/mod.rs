@@ -354,6 +354,7 @@ impl Scene {
 
     /// The shading normals at the corners of triangle `p` (its crease
     /// corners where a crease split them).
+    #[inline]
     fn vertex_normals(&self, p: usize) -> [Vec3; 3] {
         match self.mesh.corner_normals.get(p) {
             Some(corners) => *corners,
