@@ -578,6 +578,19 @@ trait Query {
     type Answer: Copy;
     const MISS: Self::Answer;
     fn alone(bvh: &NativeBvh, ray: &Ray, counters: &mut TraceCounters) -> Self::Answer;
+    /// Whether the rays of a batch that no packet takes are walked
+    /// together ([`Query::rest`]) rather than one at a time.
+    const STREAMS: bool;
+    /// The rays of a batch that no packet takes (`which`: indices into
+    /// `rays`, at most [`traverse::STREAM`]), when [`Query::STREAMS`].
+    fn rest(
+        bvh: &NativeBvh,
+        blocks: &[TriangleBlock4],
+        rays: &[Ray],
+        which: &[u32],
+        out: &mut [Self::Answer],
+        counters: &mut TraceCounters,
+    );
     /// # Safety
     /// From `W`'s `#[target_feature]` code, with a non-empty tree.
     unsafe fn packet<W: Width>(
@@ -600,9 +613,25 @@ struct Occluded;
 impl Query for Closest {
     type Answer = Option<Hit>;
     const MISS: Option<Hit> = None;
+    // Closest hits keep single rays' front-to-back order; a stream that
+    // shares nodes loses it (not measured yet).
+    const STREAMS: bool = false;
     fn alone(bvh: &NativeBvh, ray: &Ray, counters: &mut TraceCounters) -> Option<Hit> {
         let vectors = ray.traceable_vectors()?;
         bvh.closest(ray, vectors, counters)
+    }
+
+    fn rest(
+        bvh: &NativeBvh,
+        _: &[TriangleBlock4],
+        rays: &[Ray],
+        which: &[u32],
+        out: &mut [Option<Hit>],
+        counters: &mut TraceCounters,
+    ) {
+        for &i in which {
+            out[i as usize] = Self::alone(bvh, &rays[i as usize], counters);
+        }
     }
 
     /// Triangles together, then spheres (if any) ray by ray within each
@@ -670,9 +699,68 @@ impl Query for Closest {
 impl Query for Occluded {
     type Answer = bool;
     const MISS: bool = false;
+    const STREAMS: bool = true;
     fn alone(bvh: &NativeBvh, ray: &Ray, counters: &mut TraceCounters) -> bool {
         ray.traceable_vectors()
             .is_some_and(|v| bvh.any(ray, v, counters))
+    }
+
+    /// As one stream ([`traverse::any_stream`]): incoherent occlusion rays
+    /// share the nodes they enter (CBbunny's random shadow rays 1.3-1.4x
+    /// single rays, AVX2; docs/experiments.md, stop 43).
+    fn rest(
+        bvh: &NativeBvh,
+        blocks: &[TriangleBlock4],
+        rays: &[Ray],
+        which: &[u32],
+        out: &mut [bool],
+        counters: &mut TraceCounters,
+    ) {
+        let Some(cpu) = bvh.cpu else {
+            for &i in which {
+                out[i as usize] = Self::alone(bvh, &rays[i as usize], counters);
+            }
+            return;
+        };
+        let mut work = Work::default();
+        let unused = BoxRay::new(Vec3A::ZERO, Vec3A::X, 0.0);
+        let mut box_rays = [unused; traverse::STREAM];
+        let mut t_max = [0.0f32; traverse::STREAM];
+        let mut active = 0u64;
+        for (k, &i) in which.iter().enumerate() {
+            let ray = &rays[i as usize];
+            if let Some((o, d)) = ray.traceable_vectors() {
+                active |= 1 << k;
+                box_rays[k] = BoxRay::new(o, d, ray.t_min);
+            }
+            t_max[k] = ray.t_max;
+        }
+        let n = which.len();
+        let mut leaves = |k: usize| BlockLeaves {
+            blocks,
+            ray: &rays[which[k] as usize],
+            best: None,
+        };
+        let (tree, test) = (&bvh.triangles, bvh.box_test);
+        let blocked = traverse::any_stream(
+            tree,
+            &box_rays[..n],
+            &t_max[..n],
+            active,
+            &mut leaves,
+            cpu,
+            test,
+            &mut work,
+        );
+        for (k, &i) in which.iter().enumerate() {
+            let ray = &rays[i as usize];
+            out[i as usize] = blocked >> k & 1 != 0
+                || (active >> k & 1 != 0
+                    && !bvh.sphere_items.is_empty()
+                    && bvh.any_sphere(ray, &box_rays[k], &mut work));
+        }
+        counters.box_tests += work.nodes * node::WIDTH as u64;
+        counters.prim_tests += work.items;
     }
 
     /// Triangles together, then spheres ray by ray for those not blocked,
@@ -815,11 +903,17 @@ impl NativeBvh {
             PacketKernels::Avx2(_) => (Self::group8::<Q>, 8),
             PacketKernels::None => return None,
         };
-        for (k, (group_rays, out)) in rays.chunks(lanes).zip(out.chunks_mut(lanes)).enumerate() {
+        // Rays of groups that form no packet, traced together once there
+        // are a stream's worth.
+        let mut pending = [0u32; traverse::STREAM];
+        let mut waiting = 0;
+        for start in (0..rays.len()).step_by(lanes) {
+            let end = rays.len().min(start + lanes);
+            let group_rays = &rays[start..end];
             counters.rays += group_rays.len() as u64;
             // The rays of the group after next, half a cache line each:
             // their first loads otherwise wait for memory.
-            let ahead = rays.as_ptr().wrapping_add((k + PREFETCH_GROUPS) * lanes);
+            let ahead = rays.as_ptr().wrapping_add(start + PREFETCH_GROUPS * lanes);
             for line in 0..lanes / 2 {
                 let line = ahead.cast::<i8>().wrapping_add(64 * line);
                 // SAFETY: SSE is in every x86_64 CPU, and a prefetch never
@@ -828,19 +922,35 @@ impl NativeBvh {
                     std::arch::x86_64::_mm_prefetch::<{ std::arch::x86_64::_MM_HINT_T0 }>(line)
                 };
             }
-            if !packet::packet_can_form(group_rays, min_packet(lanes)) {
+            let packs = packet::packet_can_form(group_rays, min_packet(lanes));
+            if !packs && !Q::STREAMS {
                 // No packet can form: the rays go alone, as single-ray
                 // queries do, outside the lanes' code (traced from inside
                 // it, incoherent batches ran at 0.93x single rays).
-                for (ray, answer) in group_rays.iter().zip(out.iter_mut()) {
+                for (ray, answer) in group_rays.iter().zip(&mut out[start..end]) {
                     *answer = Q::alone(self, ray, counters);
+                }
+                continue;
+            }
+            if !packs {
+                // Or they wait for a stream's worth, traced together.
+                for i in start..end {
+                    pending[waiting] = i as u32;
+                    waiting += 1;
+                    if waiting == traverse::STREAM {
+                        Q::rest(self, blocks, rays, &pending, out, counters);
+                        waiting = 0;
+                    }
                 }
                 continue;
             }
             // SAFETY: the kernels were chosen by the token that proves
             // their CPU features; the triangle tree is not empty (checked
             // above).
-            unsafe { group(self, blocks, group_rays, out, counters) };
+            unsafe { group(self, blocks, group_rays, &mut out[start..end], counters) };
+        }
+        if waiting > 0 {
+            Q::rest(self, blocks, rays, &pending[..waiting], out, counters);
         }
         Some(())
     }
@@ -930,6 +1040,56 @@ impl Accel for NativeBvh {
                 self.leaf_cap,
                 if self.simd() { "AVX2" } else { "scalar" }
             ),
+        }
+    }
+}
+
+#[cfg(all(test, target_arch = "x86_64"))]
+mod tests {
+    use super::*;
+    use crate::parity::rays::{occlusion_rays, shadow_rays};
+    use crate::scene::builtin::CORNELL;
+    use crate::scene::NormalMode;
+
+    /// Occlusion streams answer as single rays do, ray for ray: full
+    /// streams of random rays, short ones (walked alone from the root), the
+    /// renderer's light rays, and rays that cannot be traced at all.
+    #[test]
+    fn occlusion_streams_answer_as_single_rays() {
+        if Avx2::detect().is_none() {
+            return;
+        }
+        let scene = CORNELL
+            .load(NormalMode::Smooth)
+            .expect("the default scene loads");
+        let bvh = NativeBvh::build(&scene, &NativeOptions::DEFAULT).expect("native builds");
+        let TriangleStore::Blocks(blocks) = &bvh.triangle_store else {
+            panic!("the default options store triangle blocks");
+        };
+        let mut rays = occlusion_rays(&scene, 3_000, 7);
+        rays.extend(shadow_rays(&scene, &bvh, 3_000, 8));
+        rays[5].dir = Vec3::ZERO;
+        rays[70].origin.y = f32::NAN;
+        let mut alone = TraceCounters::default();
+        let single: Vec<bool> = rays.iter().map(|r| bvh.occluded(r, &mut alone)).collect();
+        assert!(single.iter().any(|&b| b) && single.iter().any(|&b| !b));
+        for size in [traverse::STREAM, 37, 3] {
+            let mut out = vec![false; rays.len()];
+            let mut streams = TraceCounters::default();
+            for start in (0..rays.len()).step_by(size) {
+                let which: Vec<u32> = (start..rays.len().min(start + size))
+                    .map(|i| i as u32)
+                    .collect();
+                Occluded::rest(&bvh, blocks, &rays, &which, &mut out, &mut streams);
+            }
+            assert_eq!(out, single, "streams of {size} rays");
+            // Each ray meets the nodes and leaves of its single-ray walk,
+            // in the same order, up to the same leaf: the same counts.
+            assert_eq!(
+                (streams.box_tests, streams.prim_tests),
+                (alone.box_tests, alone.prim_tests),
+                "streams of {size} rays: node and leaf tests"
+            );
         }
     }
 }

@@ -281,10 +281,52 @@ pub fn any<L: Leaves>(
     scalar::any(tree, ray, t_max, leaves, work, start)
 }
 
+/// Which of `rays` (at most [`STREAM`], those in `active`) anything
+/// blocks within their `t_max`, walked as one stream
+/// ([`avx2::any_stream`]); `leaves(i)` gives ray `i`'s leaf test. The
+/// same answers as [`any`] ray by ray.
+#[cfg(target_arch = "x86_64")]
+#[allow(clippy::too_many_arguments)]
+pub fn any_stream<L: Leaves>(
+    tree: &Tree,
+    rays: &[BoxRay],
+    t_max: &[f32],
+    active: u64,
+    leaves: &mut impl FnMut(usize) -> L,
+    cpu: Avx2,
+    test: BoxTest,
+    work: &mut Work,
+) -> u64 {
+    assert!(rays.len() <= STREAM && t_max.len() == rays.len());
+    if tree.is_empty() {
+        return 0;
+    }
+    let mut entering = 0u64;
+    let mut fits = true;
+    for (i, (ray, &t)) in rays.iter().zip(t_max).enumerate() {
+        if active >> i & 1 != 0 && ray.enters(tree.bounds(), t) {
+            entering |= 1 << i;
+            fits &= ray.fast_test_fits();
+        }
+    }
+    // SAFETY: the token proves the CPU's features, the tree is not empty,
+    // and `entering` holds only rays of `rays` (checked above).
+    unsafe {
+        if test == BoxTest::Fast && fits {
+            avx2::any_stream::<false, L>(cpu, tree, rays, t_max, entering, leaves, work)
+        } else {
+            avx2::any_stream::<true, L>(cpu, tree, rays, t_max, entering, leaves, work)
+        }
+    }
+}
+
 mod scalar;
 
 #[cfg(target_arch = "x86_64")]
 mod avx2;
+
+#[cfg(target_arch = "x86_64")]
+pub use avx2::STREAM;
 
 #[cfg(target_arch = "x86_64")]
 pub mod packet;
