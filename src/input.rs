@@ -49,6 +49,57 @@ pub fn read_regular(path: &Path, max_bytes: u64) -> Result<Vec<u8>, String> {
     Ok(bytes)
 }
 
+/// Bytes this process may still allocate: the smaller of what the system
+/// has available (`MemAvailable`) and what its address-space limit
+/// (`ulimit -v`) leaves beside what it has mapped; `None` when neither can
+/// be read.
+pub fn memory_available() -> Option<u64> {
+    let meminfo = std::fs::read_to_string("/proc/meminfo").ok();
+    let available = meminfo.as_deref().and_then(|m| {
+        m.lines()
+            .find_map(|l| l.strip_prefix("MemAvailable:"))
+            .and_then(|v| v.trim().trim_end_matches("kB").trim().parse::<u64>().ok())
+            .map(|kib| kib << 10)
+    });
+    let mut limit = libc::rlimit {
+        rlim_cur: 0,
+        rlim_max: 0,
+    };
+    // SAFETY: getrlimit writes the limit into the struct we own.
+    let capped = unsafe { libc::getrlimit(libc::RLIMIT_AS, &mut limit) } == 0
+        && limit.rlim_cur != libc::RLIM_INFINITY;
+    // `rlim_t` is narrower than u64 on some targets.
+    #[allow(clippy::unnecessary_cast)]
+    let cur = limit.rlim_cur as u64;
+    let left_by_limit = capped.then(|| {
+        let mapped = std::fs::read_to_string("/proc/self/statm")
+            .ok()
+            .and_then(|s| s.split_whitespace().next()?.parse::<u64>().ok())
+            .map_or(0, |pages| pages * 4096);
+        cur.saturating_sub(mapped)
+    });
+    match (available, left_by_limit) {
+        (Some(a), Some(b)) => Some(a.min(b)),
+        (a, b) => a.or(b),
+    }
+}
+
+/// `Err` naming `what` and the memory it would take when `bytes` is more
+/// than [`memory_available`]: checked before the work, so a count the
+/// machine cannot hold is refused at once instead of aborting on
+/// allocation minutes later.
+pub fn check_memory(what: &str, bytes: u64) -> Result<(), String> {
+    let gib = |b: u64| b as f64 / (1u64 << 30) as f64;
+    match memory_available() {
+        Some(free) if bytes > free => Err(format!(
+            "{what} would take about {:.1} GiB of memory, and {:.1} GiB is available here",
+            gib(bytes),
+            gib(free)
+        )),
+        _ => Ok(()),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -82,53 +133,5 @@ mod tests {
             .unwrap_err()
             .contains("not a regular file"));
         std::fs::remove_dir_all(&dir).unwrap();
-    }
-}
-
-/// Bytes this process may still allocate: the smaller of what the system
-/// has available (`MemAvailable`) and what its address-space limit
-/// (`ulimit -v`) leaves beside what it has mapped; `None` when neither can
-/// be read.
-pub fn memory_available() -> Option<u64> {
-    let meminfo = std::fs::read_to_string("/proc/meminfo").ok();
-    let available = meminfo.as_deref().and_then(|m| {
-        m.lines()
-            .find_map(|l| l.strip_prefix("MemAvailable:"))
-            .and_then(|v| v.trim().trim_end_matches("kB").trim().parse::<u64>().ok())
-            .map(|kib| kib << 10)
-    });
-    let mut limit = libc::rlimit {
-        rlim_cur: 0,
-        rlim_max: 0,
-    };
-    // SAFETY: getrlimit writes the limit into the struct we own.
-    let capped = unsafe { libc::getrlimit(libc::RLIMIT_AS, &mut limit) } == 0
-        && limit.rlim_cur != libc::RLIM_INFINITY;
-    let left_by_limit = capped.then(|| {
-        let mapped = std::fs::read_to_string("/proc/self/statm")
-            .ok()
-            .and_then(|s| s.split_whitespace().next()?.parse::<u64>().ok())
-            .map_or(0, |pages| pages * 4096);
-        (limit.rlim_cur as u64).saturating_sub(mapped)
-    });
-    match (available, left_by_limit) {
-        (Some(a), Some(b)) => Some(a.min(b)),
-        (a, b) => a.or(b),
-    }
-}
-
-/// `Err` naming `what` and the memory it would take when `bytes` is more
-/// than [`memory_available`]: checked before the work, so a count the
-/// machine cannot hold is refused at once instead of aborting on
-/// allocation minutes later.
-pub fn check_memory(what: &str, bytes: u64) -> Result<(), String> {
-    let gib = |b: u64| b as f64 / (1u64 << 30) as f64;
-    match memory_available() {
-        Some(free) if bytes > free => Err(format!(
-            "{what} would take about {:.1} GiB of memory, and {:.1} GiB is available here",
-            gib(bytes),
-            gib(free)
-        )),
-        _ => Ok(()),
     }
 }

@@ -13,6 +13,10 @@
 //! - [`text`]: text set into images (captions, legends).
 //! - [`input`]: how user files are read (regular files, caps, quoting).
 
+// `!(x > 0.0)` is how this crate refuses NaN together with the values out
+// of range; the `partial_cmp` form the lint asks for hides that.
+#![allow(clippy::neg_cmp_op_on_partial_ord)]
+
 pub mod accel;
 pub mod bench;
 pub mod choice;

@@ -463,7 +463,7 @@ pub fn run(args: &SeriesArgs, raw: &[OsString]) -> Result<(), String> {
     let mut films = Vec::new();
     let mut timed = Vec::new();
     for tile in tiles {
-        let shown = shown_values(&axes, &tile.values);
+        let shown = shown_values(axes, &tile.values);
         let what = axes
             .iter()
             .zip(&shown)
@@ -558,7 +558,7 @@ pub fn run(args: &SeriesArgs, raw: &[OsString]) -> Result<(), String> {
         usize::from,
     );
     let contact = sheet(&title, &pictures, columns)?;
-    let (markdown, csv) = tables(&axes, &timed, &title);
+    let (markdown, csv) = tables(axes, &timed, &title);
     let (md_path, csv_path) = (plan.beside(".md"), plan.beside(".csv"));
     let mut files = Vec::new();
     for (path, rate, film, map) in &films {

@@ -38,7 +38,7 @@ pub enum SettingsError {
     /// More pixels than one run holds.
     #[error(
         "{width} x {height} pixels to render: at most {MAX_PIXELS} ({} MiB of film) per run; split the frame with -p",
-        MAX_PIXELS * FILM_BYTES_PER_PIXEL >> 20
+        (MAX_PIXELS * FILM_BYTES_PER_PIXEL) >> 20
     )]
     TooManyPixels { width: u32, height: u32 },
 }

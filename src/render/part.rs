@@ -104,7 +104,7 @@ fn read_part_from(mut input: impl Read + Seek) -> Result<Part, String> {
             .channel_data
             .list
             .iter()
-            .find(|c| c.name == Text::from(name))
+            .find(|c| c.name.eq(name))
             .ok_or_else(|| format!("channel '{name}' is missing"))?;
         match &c.sample_data {
             FlatSamples::U32(v) => Ok(v.clone()),

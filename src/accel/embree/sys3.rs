@@ -98,7 +98,7 @@ fn make_rayhit(ray: RawRay) -> raw::RTCRayHit {
 }
 
 fn raw_hit(rh: &raw::RTCRayHit) -> Option<RawHit> {
-    (rh.hit.geomID != INVALID_GEOMETRY_ID).then(|| RawHit {
+    (rh.hit.geomID != INVALID_GEOMETRY_ID).then_some(RawHit {
         t: rh.ray.tfar,
         geometry: rh.hit.geomID,
         primitive: rh.hit.primID,

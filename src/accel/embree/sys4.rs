@@ -229,7 +229,7 @@ fn make_rayhit(ray: RawRay) -> RayHit {
 
 fn raw_hit(rh: &RayHit) -> Option<RawHit> {
     let (ray, hit) = (&rh.rayhit.ray, &rh.rayhit.hit);
-    (hit.geomID != INVALID_GEOMETRY_ID).then(|| RawHit {
+    (hit.geomID != INVALID_GEOMETRY_ID).then_some(RawHit {
         t: ray.tfar,
         geometry: hit.geomID,
         primitive: hit.primID,

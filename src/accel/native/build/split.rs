@@ -115,9 +115,9 @@ impl BinSet {
     fn add(&mut self, r: &PrimRef, lo: Vec3A, scale: Vec3A) {
         let a = r.aabb();
         let b = bins_of(a.centroid2(), lo, scale);
-        for axis in 0..3 {
-            self.boxes[axis][b[axis]].grow(&a);
-            self.counts[axis][b[axis]] += 1;
+        for (axis, &bin) in b.iter().enumerate() {
+            self.boxes[axis][bin].grow(&a);
+            self.counts[axis][bin] += 1;
         }
     }
 
