@@ -286,14 +286,36 @@ impl SceneInput {
     /// Its warnings go to stderr, one `hybrid: warning:` line each.
     pub fn load(&self, normals: NormalMode) -> Result<Scene, String> {
         let scene = match &self.scene {
-            Some(p) => collada::load_limited(p, normals, self.max_scene_mb.saturating_mul(1 << 20)),
-            None => builtin::CORNELL.load(normals),
-        }
-        .map_err(|e| e.to_string())?;
+            Some(p) => collada::load_limited(p, normals, self.max_scene_mb.saturating_mul(1 << 20))
+                .map_err(|e| missing_scene_hint(p, e)),
+            None => builtin::CORNELL.load(normals).map_err(|e| e.to_string()),
+        }?;
         for warning in &scene.warnings {
             report_line("warning", warning);
         }
         Ok(scene)
+    }
+}
+
+/// A scene that is not there: the error, and where the course's shared
+/// scenes are (and the file itself, if `path` names one of them).
+fn missing_scene_hint(path: &Path, e: collada::LoadError) -> String {
+    let missing = matches!(&e, collada::LoadError::Io { source, .. }
+        if source.kind() == std::io::ErrorKind::NotFound);
+    if !missing || path.is_absolute() {
+        return e.to_string();
+    }
+    let shared = shared_scenes_dir();
+    let shared = shared.canonicalize().unwrap_or(shared);
+    let there = shared.join(path);
+    if there.is_file() {
+        format!("{e}; the shared scenes hold {}", there.display())
+    } else {
+        format!(
+            "{e}; the course's shared scenes are in {} (set HYBRID_SCENES to move it), e.g. {}",
+            shared.display(),
+            shared.join("sky/CBbunny.dae").display()
+        )
     }
 }
 

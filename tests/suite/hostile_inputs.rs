@@ -736,3 +736,41 @@ fn the_command_line_check_plans_series_and_export_outputs() {
         b"the user's notes"
     );
 }
+
+/// Issue 50: a relative scene path that is not there says where the shared
+/// scenes are, and names the file when it is one of them.
+#[test]
+fn a_missing_scene_points_to_the_shared_scenes() {
+    let dir = common::scratch("hostile-missing-scene");
+    let shared = dir.join("shared");
+    std::fs::create_dir_all(shared.join("sky")).unwrap();
+    let tiny = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/tiny.dae");
+    std::fs::copy(&tiny, shared.join("sky/tiny.dae")).unwrap();
+    let work = dir.join("work");
+    std::fs::create_dir_all(&work).unwrap();
+    let error = |scene: &str| {
+        let o = Command::new(env!("CARGO_BIN_EXE_hybrid"))
+            .args(["render", "-r", "8", "6", scene, "-f", "out.png"])
+            .current_dir(&work)
+            .env("HYBRID_SCENES", &shared)
+            .output()
+            .unwrap();
+        assert_eq!(o.status.code(), Some(2), "{scene}");
+        String::from_utf8_lossy(&o.stderr).trim_end().to_string()
+    };
+    let shared = shared.canonicalize().unwrap();
+    let named = error("sky/tiny.dae");
+    let expected = shared.join("sky/tiny.dae");
+    assert!(named.contains(&expected.display().to_string()), "{named}");
+    let elsewhere = error("sky/CBnothing.dae");
+    assert!(elsewhere.contains("HYBRID_SCENES"), "{elsewhere}");
+    assert!(
+        elsewhere.contains(&shared.display().to_string()),
+        "{elsewhere}"
+    );
+    assert_eq!(named.lines().count(), 1);
+    assert!(
+        std::fs::read_dir(&work).unwrap().next().is_none(),
+        "wrote files"
+    );
+}
