@@ -1025,11 +1025,11 @@ impl Accel for NativeBvh {
             batch_call: match self.packets {
                 #[cfg(target_arch = "x86_64")]
                 PacketKernels::Avx512(_) => {
-                    "packets of 16 rays (AVX-512), single rays below 4 per octant"
+                    "packets of 16 rays (AVX-512) where 12 share an octant; other closest hits alone, other occlusion rays in streams of 64"
                 }
                 #[cfg(target_arch = "x86_64")]
                 PacketKernels::Avx2(_) => {
-                    "packets of 8 rays (AVX2), single rays below 4 per octant"
+                    "packets of 8 rays (AVX2) where 6 share an octant; other closest hits alone, other occlusion rays in streams of 64"
                 }
                 PacketKernels::None => "single-ray loop (no AVX2)",
             },
