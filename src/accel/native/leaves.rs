@@ -17,10 +17,23 @@ use super::SphereItem;
 use crate::geom::Ray;
 
 /// Möller–Trumbore blocks: remembers (block, lane, u, v) of the nearest hit.
+///
+/// Hits are ordered by distance, then by slot (`4 * block + lane`): of two
+/// triangles at exactly the same distance (a ray through the edge they
+/// share) the lower slot wins, whichever the walk meets first. So the
+/// answer does not depend on the order leaves are visited in, and packets
+/// ([`BlockPacket`]), which visit them in another order, give single rays'
+/// answers bit for bit.
 pub(super) struct BlockLeaves<'a> {
     pub(super) blocks: &'a [TriangleBlock4],
     pub(super) ray: &'a Ray,
     pub(super) best: Option<(u32, usize, f32, f32)>,
+}
+
+/// The slot of a remembered hit, `u32::MAX` for none: ties go to the lower.
+#[inline(always)]
+fn slot(best: Option<(u32, usize, f32, f32)>) -> u32 {
+    best.map_or(u32::MAX, |(b, lane, ..)| 4 * b + lane as u32)
 }
 
 impl Leaves for BlockLeaves<'_> {
@@ -31,9 +44,12 @@ impl Leaves for BlockLeaves<'_> {
             if let Some((lane, t, u, v)) =
                 self.blocks[b as usize].nearest(self.ray, self.ray.t_min, t_max)
             {
-                t_max = t;
-                found = Some(t);
-                self.best = Some((b, lane, u, v));
+                // At exactly `t_max`, only a lower slot than the hit so far.
+                if t < t_max || 4 * b + (lane as u32) < slot(self.best) {
+                    t_max = t;
+                    found = Some(t);
+                    self.best = Some((b, lane, u, v));
+                }
             }
         }
         found
@@ -237,6 +253,12 @@ impl<'a, W: Width> BlockPacket<'a, W> {
         }
     }
 
+    /// Lane `i`'s hit so far, as [`BlockLeaves::best`] holds it.
+    pub(super) fn get(&self, i: usize) -> Option<(u32, usize, f32, f32)> {
+        let id = self.best[i].to_bits();
+        (id != u32::MAX).then(|| (id / 4, (id % 4) as usize, self.u[i], self.v[i]))
+    }
+
     /// Lane `i`'s hit as a single-ray leaf test left it.
     pub(super) fn set(&mut self, i: usize, hit: Option<(u32, usize, f32, f32)>) {
         if let Some((b, lane, u, v)) = hit {
@@ -273,15 +295,30 @@ impl<W: Width> PacketLeaves<W> for BlockPacket<'_, W> {
         for b in first..first + count {
             let block = &self.blocks[b as usize];
             // Triangle by triangle, each taking the rays whose nearest it
-            // is so far (`t <= t_max`, the later one on a tie): what the
-            // single-ray block test and leaf loop choose.
+            // is so far (`t <= t_max`, and at exactly `t_max` only from a
+            // higher slot): what the single-ray block test and leaf loop
+            // choose.
             for i in 0..4 {
                 if block.prim(i) == u32::MAX {
                     break;
                 }
-                let (hits, t, u, v) = lanes_hit::<W, false>(block, i, self.rays, t_lanes, mask);
+                let (mut hits, t, u, v) = lanes_hit::<W, false>(block, i, self.rays, t_lanes, mask);
                 if hits == 0 {
                     continue;
+                }
+                let ties = hits & W::ge(t, t_lanes);
+                if ties != 0 {
+                    let mut held = [0.0f32; MAX_LANES];
+                    W::store(&mut held, best);
+                    let id = 4 * b + i as u32;
+                    for (lane, held) in held.iter().enumerate().take(W::N) {
+                        if ties >> lane & 1 != 0 && id >= held.to_bits() {
+                            hits &= !(1 << lane);
+                        }
+                    }
+                    if hits == 0 {
+                        continue;
+                    }
                 }
                 found |= hits;
                 t_lanes = W::select(hits, t_lanes, t);

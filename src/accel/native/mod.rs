@@ -650,10 +650,12 @@ impl Query for Closest {
         // Ray `i` alone from `start`, its hit kept in the packet's leaves.
         let mut alone =
             |leaves: &mut BlockPacket<W>, i: usize, start, t: &mut f32, work: &mut Work| {
+                // The lane's hit so far goes along: a tie at `t` is
+                // decided by its slot.
                 let mut one = BlockLeaves {
                     blocks,
                     ray: &rays[i],
-                    best: None,
+                    best: leaves.get(i),
                 };
                 let box_ray = box_ray_of(&rays[i]);
                 let hit = traverse::closest(tree, &box_ray, t, &mut one, cpu, test, work, start);
@@ -661,11 +663,18 @@ impl Query for Closest {
                 hit
             };
         let mut leaves = BlockPacket::new(blocks, p.rays);
+        // The rays that miss the root box meet no triangle, as alone.
+        let rooted = Packet {
+            rays: p.rays,
+            mask: p.mask & p.rays.enters(tree.bounds(), W::load(&t_max)),
+        };
         let (t, l) = (&mut t_max, &mut leaves);
-        let found = if test == BoxTest::Fast && p.fast_test_fits() {
-            packet::closest::<W, false, _>(tree, p, t, l, &mut alone, work, SINGLE_BELOW)
+        let found = if rooted.mask == 0 {
+            0
+        } else if test == BoxTest::Fast && rooted.fast_test_fits() {
+            packet::closest::<W, false, _>(tree, &rooted, t, l, &mut alone, work, SINGLE_BELOW)
         } else {
-            packet::closest::<W, true, _>(tree, p, t, l, &mut alone, work, SINGLE_BELOW)
+            packet::closest::<W, true, _>(tree, &rooted, t, l, &mut alone, work, SINGLE_BELOW)
         };
         // Without spheres a miss is one store, and no lane's branch depends
         // on whether it hit.
@@ -786,10 +795,18 @@ impl Query for Occluded {
             traverse::any(tree, &box_ray, t, &mut one, cpu, test, work, start)
         };
         let mut leaves = BlockPacket::new(blocks, p.rays);
-        let blocked = if test == BoxTest::Fast && p.fast_test_fits() {
-            packet::any::<W, false, _>(tree, p, &t_max, &mut leaves, &mut alone, work, SINGLE_BELOW)
+        // The rays that miss the root box meet no triangle, as alone.
+        let rooted = Packet {
+            rays: p.rays,
+            mask: p.mask & p.rays.enters(tree.bounds(), W::load(&t_max)),
+        };
+        let l = &mut leaves;
+        let blocked = if rooted.mask == 0 {
+            0
+        } else if test == BoxTest::Fast && rooted.fast_test_fits() {
+            packet::any::<W, false, _>(tree, &rooted, &t_max, l, &mut alone, work, SINGLE_BELOW)
         } else {
-            packet::any::<W, true, _>(tree, p, &t_max, &mut leaves, &mut alone, work, SINGLE_BELOW)
+            packet::any::<W, true, _>(tree, &rooted, &t_max, l, &mut alone, work, SINGLE_BELOW)
         };
         for i in lanes_of(p.mask) {
             out[i] = blocked & (1 << i) != 0

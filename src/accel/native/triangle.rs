@@ -293,7 +293,8 @@ impl TriangleBlock4 {
     }
 
     /// The nearest hit in `(t_min, t_max]`: `(lane, t, u, v)`; on equal
-    /// distances the later lane.
+    /// distances the lowest lane (ties go to the lowest slot, see
+    /// [`BlockLeaves`](super::leaves::BlockLeaves)).
     #[inline(always)]
     pub fn nearest(&self, ray: &Ray, t_min: f32, t_max: f32) -> Option<LaneHit> {
         #[cfg(target_arch = "x86_64")]
@@ -313,7 +314,7 @@ impl TriangleBlock4 {
         let mut best: Option<LaneHit> = None;
         for i in 0..4 {
             if let Some((t, u, v)) = MollerTrumbore::intersect(&self.lane(i), ray, t_min, t_max) {
-                if best.is_none_or(|b| t <= b.1) {
+                if best.is_none_or(|b| t < b.1) {
                     best = Some((i, t, u, v));
                 }
             }
@@ -407,7 +408,7 @@ impl TriangleBlock4 {
             mask &= mask - 1;
             while mask != 0 {
                 let i = mask.trailing_zeros() as usize;
-                if ts[i] <= ts[best] {
+                if ts[i] < ts[best] {
                     best = i;
                 }
                 mask &= mask - 1;

@@ -30,9 +30,10 @@
 //!   each ray with its own `t_max`.
 //!
 //! So each ray's hit is the nearest of the primitives its single-ray test
-//! accepts; only between primitives at exactly the same distance may the
-//! visiting order pick another (the single-ray kernels differ from each
-//! other there too).
+//! accepts. Between triangles at exactly the same distance the lower slot
+//! wins in both (`leaves::BlockLeaves`), so the visiting order cannot pick
+//! another; and each lane first takes the single-ray walk's root box test
+//! ([`PacketRays::enters`]).
 
 use std::arch::x86_64::*;
 
@@ -654,6 +655,33 @@ impl<W: Width> PacketRays<W> {
     /// lowest lane.
     pub fn same_octant(&self, group: u32) -> u32 {
         same_octant(self.negative, group)
+    }
+
+    /// The lanes whose ray enters the box `[lo, hi]` within their `t_max`:
+    /// [`BoxRay::enters`], the single-ray walk's test of the root, lane by
+    /// lane with the same operations (its minima and maxima are exact, so
+    /// their order does not matter). A hit the triangle test's edge slack
+    /// places just outside the root box is then missed by a packet's lane
+    /// exactly as by the ray alone.
+    ///
+    /// # Safety
+    /// As [`PacketRays::load`].
+    #[inline(always)]
+    pub unsafe fn enters(&self, [lo, hi]: [Vec3A; 2], t_max: W::V) -> u32 {
+        let o = &self.lanes.origin;
+        let mut inside = u32::MAX;
+        let mut near = self.lanes.t_min;
+        let mut far = W::splat(f32::INFINITY);
+        for k in 0..3 {
+            let (l, h) = (W::splat(lo[k]), W::splat(hi[k]));
+            inside &= W::ge(o[k], l) & W::le(o[k], h);
+            let a = W::mul(W::sub(l, o[k]), self.inv[k]);
+            let b = W::mul(W::sub(h, o[k]), self.inv[k]);
+            near = W::max(near, W::min(a, b));
+            far = W::min(far, W::max(a, b));
+        }
+        let far = W::min(W::mul(far, W::splat(BOX_FAR_SCALE)), t_max);
+        inside | W::le(near, far)
     }
 
     /// Each lane's `t_max`.
