@@ -211,6 +211,70 @@ fn range(values: &[f64]) -> String {
     }
 }
 
+/// The report's first sentence per Embree: coherent rays (camera, light),
+/// incoherent rays (incoherent, shadow, bounce), builds and frames, each
+/// as the range of native's speed over that Embree's across the scenes
+/// (one thread; frames on the report's threads). The verdict below gives
+/// each measure and scene.
+pub fn answer(results: &[SceneResult]) -> String {
+    let threads = results.first().map_or(1, |r| r.threads);
+    let of = |j: usize, kinds: &[&str]| -> Vec<f64> {
+        results
+            .iter()
+            .flat_map(|r| r.traces.iter())
+            .filter(|t| kinds.contains(&t.kind))
+            .map(|t| t.ratio(j))
+            .collect()
+    };
+    let parts: Vec<String> = rivals(results)
+        .into_iter()
+        .map(|(j, rival)| {
+            let coherent = of(j, &["camera", "camera rows", "light"]);
+            let incoherent = of(j, &["incoherent", "shadow", "bounce"]);
+            let builds: Vec<f64> = results
+                .iter()
+                .filter_map(|r| {
+                    let (n, e) = (r.build(&r.compared[0])?, r.build(&r.compared[j])?);
+                    Some(e.one_thread.median / n.one_thread.median)
+                })
+                .collect();
+            let frames: Vec<f64> = results.iter().map(|r| r.frame_ratio(j)).collect();
+            let mut said = Vec::new();
+            if !coherent.is_empty() {
+                said.push(format!(
+                    "coherent rays (camera, light) at {}",
+                    range(&coherent)
+                ));
+            }
+            if !incoherent.is_empty() {
+                said.push(format!(
+                    "incoherent ones (incoherent, shadow, bounce) at {}",
+                    range(&incoherent)
+                ));
+            }
+            if !builds.is_empty() {
+                said.push(format!("builds at {}", range(&builds)));
+            }
+            if !frames.is_empty() {
+                said.push(format!(
+                    "path-traced frames on {} at {}",
+                    super::counted(threads, "thread"),
+                    range(&frames)
+                ));
+            }
+            format!("against {rival}, native runs {}", said.join(", "))
+        })
+        .collect();
+    if parts.is_empty() {
+        return String::new();
+    }
+    format!(
+        "**In short:** {} of that Embree's speed (greater than 1: native is faster; one thread unless said, over the {} scenes below, figures marked ⚠ included).\n\n",
+        parts.join("; "),
+        results.len()
+    )
+}
+
 /// The report's opening paragraph: what the headline table says, in words,
 /// from the measured ratios (greater than 1: native is faster).
 pub fn verdict(results: &[SceneResult], table: &Table) -> String {

@@ -154,8 +154,9 @@ pub fn run(options: &ReportOptions, log: &mut dyn FnMut(&str)) -> Result<(), Str
     let (scenes_md, scenes_json) = scenes::section(&per_scene);
     let (packets_md, packets_json) = scenes::packets_section(&per_scene);
     let brute_table = brute::table(&brute_rows);
+    let answer = headline::answer(&per_scene);
     let mut md = format!(
-        "# hybrid: native BVH against Embree\n\nMeasured on {} ({}; ISA {}), {}, hybrid {}, on {}. Settings: {} run, {} rays per ray kind, medians of {} warmed-up repeats ({} per frame; range in parentheses: min–max), all-threads figures on {}.\n\n",
+        "# hybrid: native BVH against Embree\n\n{answer}Measured on {} ({}; ISA {}), {}, hybrid {}, on {}. Settings: {} run, {} rays per ray kind, medians of {} warmed-up repeats ({} per frame; range in parentheses: min–max), all-threads figures on {}.\n\n",
         machine.cpu,
         counted(machine.cores, "core"),
         machine.isa.join(" "),
@@ -194,6 +195,7 @@ pub fn run(options: &ReportOptions, log: &mut dyn FnMut(&str)) -> Result<(), Str
     let report_json = json!({
         "machine": {"cpu": machine.cpu, "cores": machine.cores, "isa": machine.isa, "rustc": machine.rustc, "hybrid": machine.crate_version, "embree": embree_version, "kernels": kernels, "isa_ceiling": crate::accel::native::cpu::Isa::ceiling().name(), "date": machine.date},
         "settings": {"quick": options.quick, "rays": budget.rays, "repeats": budget.repeats, "frame_repeats": budget.frame_repeats, "threads": threads},
+        "answer": answer.trim(),
         "verdict": verdict.trim(),
         "headline": headline.json(),
         "scenes": scenes_json,

@@ -32,6 +32,27 @@ fn quick_report_writes_every_section_and_the_headline_figures() {
     ] {
         assert!(md.contains(section), "report.md lacks '{section}'");
     }
+    // The answer comes first, one sentence with every Embree present:
+    // coherent and incoherent rays, builds and frames.
+    let answer = md
+        .split("\n\n")
+        .nth(1)
+        .expect("a paragraph after the title");
+    assert!(answer.starts_with("**In short:** against "), "{answer}");
+    for needed in [
+        "embree3",
+        "embree4",
+        "coherent rays",
+        "incoherent ones",
+        "builds",
+        "frames",
+    ] {
+        assert!(
+            answer.contains(needed),
+            "the answer lacks '{needed}': {answer}"
+        );
+    }
+    assert_eq!(json_answer(&out), answer.trim());
     // The verdict opens the report, before any table: one paragraph per
     // Embree present.
     let opening = &md[..md.find("## Headline").expect("a headline")];
@@ -232,4 +253,12 @@ fn quick_report_writes_every_section_and_the_headline_figures() {
             img.width()
         );
     }
+}
+
+/// The report's JSON `answer`.
+fn json_answer(out: &std::path::Path) -> String {
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("report.json")).unwrap())
+            .expect("valid JSON");
+    json["answer"].as_str().expect("an answer").to_string()
 }
