@@ -582,7 +582,8 @@ trait Query {
     /// together ([`Query::rest`]) rather than one at a time.
     const STREAMS: bool;
     /// The rays of a batch that no packet takes (`which`: indices into
-    /// `rays`, at most [`traverse::STREAM`]), when [`Query::STREAMS`].
+    /// `rays`, at most [`traverse::STREAM`]), when [`Query::STREAMS`]; by
+    /// default one at a time.
     fn rest(
         bvh: &NativeBvh,
         blocks: &[TriangleBlock4],
@@ -590,7 +591,12 @@ trait Query {
         which: &[u32],
         out: &mut [Self::Answer],
         counters: &mut TraceCounters,
-    );
+    ) {
+        let _ = blocks;
+        for &i in which {
+            out[i as usize] = Self::alone(bvh, &rays[i as usize], counters);
+        }
+    }
     /// # Safety
     /// From `W`'s `#[target_feature]` code, with a non-empty tree.
     unsafe fn packet<W: Width>(
@@ -619,19 +625,6 @@ impl Query for Closest {
     fn alone(bvh: &NativeBvh, ray: &Ray, counters: &mut TraceCounters) -> Option<Hit> {
         let vectors = ray.traceable_vectors()?;
         bvh.closest(ray, vectors, counters)
-    }
-
-    fn rest(
-        bvh: &NativeBvh,
-        _: &[TriangleBlock4],
-        rays: &[Ray],
-        which: &[u32],
-        out: &mut [Option<Hit>],
-        counters: &mut TraceCounters,
-    ) {
-        for &i in which {
-            out[i as usize] = Self::alone(bvh, &rays[i as usize], counters);
-        }
     }
 
     /// Triangles together, then spheres (if any) ray by ray within each
