@@ -218,26 +218,24 @@ fn range(values: &[f64]) -> String {
 /// each measure and scene.
 pub fn answer(results: &[SceneResult]) -> String {
     let threads = results.first().map_or(1, |r| r.threads);
-    let of = |j: usize, kinds: &[&str]| -> Vec<f64> {
-        results
-            .iter()
-            .flat_map(|r| r.traces.iter())
-            .filter(|t| kinds.contains(&t.kind))
-            .map(|t| t.ratio(j))
-            .collect()
-    };
     let parts: Vec<String> = rivals(results)
         .into_iter()
         .map(|(j, rival)| {
-            let coherent = of(j, &["camera", "camera rows", "light"]);
-            let incoherent = of(j, &["incoherent", "shadow", "bounce"]);
-            let builds: Vec<f64> = results
+            // The verdict's measures, every scene's, picked by label.
+            let measured: Vec<(String, f64)> = results
                 .iter()
-                .filter_map(|r| {
-                    let (n, e) = (r.build(&r.compared[0])?, r.build(&r.compared[j])?);
-                    Some(e.one_thread.median / n.one_thread.median)
-                })
+                .flat_map(|r| one_thread_ratios(r, j))
                 .collect();
+            let of = |labels: &[&str]| -> Vec<f64> {
+                measured
+                    .iter()
+                    .filter(|(label, _)| labels.contains(&label.as_str()))
+                    .map(|m| m.1)
+                    .collect()
+            };
+            let coherent = of(&["camera rays", "camera rows rays", "light rays"]);
+            let incoherent = of(&["incoherent rays", "shadow rays", "bounce rays"]);
+            let builds = of(&["builds"]);
             let frames: Vec<f64> = results.iter().map(|r| r.frame_ratio(j)).collect();
             let mut said = Vec::new();
             if !coherent.is_empty() {
