@@ -6,8 +6,8 @@
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
 
 use hybrid::accel::config::{build_variants, compared, BackendConfig};
+use hybrid::measure::{ray_sets, trace_all};
 use hybrid::report::budget::SCENES;
-use hybrid::report::measure::{ray_sets, trace_all};
 use hybrid::scene::Scene;
 
 fn scenes() -> Vec<(String, Scene)> {

@@ -8,7 +8,7 @@
 use std::time::Instant;
 
 use hybrid::accel::BackendConfig;
-use hybrid::report::measure::{on_threads, Measured};
+use hybrid::measure::{on_threads, Measured};
 use hybrid::scene::{collada, NormalMode};
 
 fn main() {

@@ -15,7 +15,7 @@
 //! scene, so that all miss it: what is left is the cost outside the tree.
 //!
 //! Prints Mrays/s, hits and box and primitive tests per ray for each mode;
-//! the loop is the report's own (`report::measure::trace_counted`, batch
+//! the loop is the report's own (`measure::trace_counted`, batch
 //! queries of 256 rays).
 
 use std::path::Path;
@@ -25,7 +25,7 @@ use std::time::Instant;
 use hybrid::accel::{BackendConfig, TraceCounters};
 use hybrid::bench::{file, file_name, scene_of};
 use hybrid::geom::Ray;
-use hybrid::report::measure::trace_counted;
+use hybrid::measure::trace_counted;
 
 fn main() -> ExitCode {
     let args: Vec<String> = std::env::args().skip(1).collect();

@@ -7,7 +7,7 @@ use std::time::Instant;
 
 use hybrid::accel::config::compared;
 use hybrid::accel::{Accel, BackendConfig};
-use hybrid::report::measure::{on_threads, ray_sets, trace_all, Measured};
+use hybrid::measure::{on_threads, ray_sets, trace_all, Measured};
 use hybrid::scene::{collada, NormalMode};
 
 fn main() {

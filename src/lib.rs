@@ -23,6 +23,7 @@ pub mod choice;
 pub mod cli;
 pub mod geom;
 pub mod input;
+pub mod measure;
 pub mod parity;
 pub mod render;
 pub mod report;

@@ -9,7 +9,7 @@ use std::sync::OnceLock;
 
 use hybrid::accel::{config::compared, Accel, Backend};
 use hybrid::bench::{file, scene_of};
-use hybrid::report::measure::Query;
+use hybrid::measure::Query;
 use hybrid::scene::Scene;
 use libfuzzer_sys::fuzz_target;
 
@@ -40,7 +40,9 @@ fn backends() -> &'static Vec<Backend<'static>> {
 fuzz_target!(|data: &[u8]| {
     if let Ok((query, rays)) = file::parse_rays(data, Path::new("fuzz.rays")) {
         for backend in backends() {
-            let _ = backend.trace_as_c_caller(&rays, query == Query::Occluded);
+            if let Some(library) = backend.plain_c() {
+                let _ = library.trace(&rays, query == Query::Occluded);
+            }
         }
     }
 });

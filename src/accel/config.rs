@@ -4,13 +4,14 @@
 //! benches and the CLI iterate. Adding a backend means its folder (declared
 //! in `accel/mod.rs`), this file and its CLI flags.
 
-use super::embree::{BuildQuality, Embree3, Embree4, EmbreeAccel, EmbreeOptions, EmbreeVersion};
+use super::embree::{
+    BuildQuality, Embree3, Embree4, EmbreeAccel, EmbreeOptions, EmbreeVersion, PlainC,
+};
 use super::native::build::BuildMethod;
 use super::native::triangle::TriangleMode;
 use super::native::{NativeBvh, NativeOptions};
-use super::{brute, Accel, AccelError, AccelStats, BatchMode, TraceCounters};
+use super::{brute, Accel, AccelError, AccelStats, TraceCounters};
 use crate::choice::Choice;
-use crate::geom::ray::FlatRay;
 use crate::geom::{Hit, Ray};
 use crate::scene::Scene;
 
@@ -53,21 +54,6 @@ impl Accel for Backend<'_> {
         }
     }
 
-    fn trace_batched_as_c_caller(
-        &self,
-        rays: &[FlatRay],
-        occluded: bool,
-        mode: BatchMode,
-        coherent: bool,
-    ) -> Option<usize> {
-        match self {
-            Backend::Native(a) => a.trace_batched_as_c_caller(rays, occluded, mode, coherent),
-            Backend::Embree3(a) => a.trace_batched_as_c_caller(rays, occluded, mode, coherent),
-            Backend::Embree4(a) => a.trace_batched_as_c_caller(rays, occluded, mode, coherent),
-            Backend::Brute(a) => a.trace_batched_as_c_caller(rays, occluded, mode, coherent),
-        }
-    }
-
     fn occluded_all(&self, rays: &[Ray], out: &mut [bool], counters: &mut TraceCounters) {
         match self {
             Backend::Native(a) => a.occluded_all(rays, out, counters),
@@ -85,13 +71,17 @@ impl Accel for Backend<'_> {
             Backend::Brute(a) => a.stats(),
         }
     }
+}
 
-    fn trace_as_c_caller(&self, rays: &[FlatRay], occluded: bool) -> Option<usize> {
+impl Backend<'_> {
+    /// The backend's library as a plain C program calls it (the report's
+    /// baseline), for the backends that are a C library: measurement, not
+    /// a query, so it is not part of [`Accel`].
+    pub fn plain_c(&self) -> Option<&dyn PlainC> {
         match self {
-            Backend::Native(a) => a.trace_as_c_caller(rays, occluded),
-            Backend::Embree3(a) => a.trace_as_c_caller(rays, occluded),
-            Backend::Embree4(a) => a.trace_as_c_caller(rays, occluded),
-            Backend::Brute(a) => a.trace_as_c_caller(rays, occluded),
+            Backend::Embree3(a) => Some(a),
+            Backend::Embree4(a) => Some(a),
+            Backend::Native(_) | Backend::Brute(_) => None,
         }
     }
 }

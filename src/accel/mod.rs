@@ -20,7 +20,6 @@ pub mod embree;
 pub mod native;
 
 pub use self::config::{Backend, BackendConfig};
-use crate::geom::ray::FlatRay;
 use crate::geom::{Hit, Ray};
 
 /// Per-thread counters of the work a backend did; summed at the end of a
@@ -120,31 +119,10 @@ pub trait Accel: Sync + Send {
         }
     }
     fn stats(&self) -> AccelStats;
-    /// The backend's library traced as a plain C program calls it, one
-    /// call per ray (Embree through `csrc/embree_plain.c`): the number of
-    /// rays that hit (closest hit, or blocked with `occluded`), or `None`
-    /// for backends that are not a C library. The report's baseline, so
-    /// that no wrapper's cost is credited to the native backend.
-    fn trace_as_c_caller(&self, rays: &[FlatRay], occluded: bool) -> Option<usize> {
-        let _ = (rays, occluded);
-        None
-    }
-    /// As [`Accel::trace_as_c_caller`], in the library's batched `mode`
-    /// with the coherent hint or not, where the library has that mode.
-    fn trace_batched_as_c_caller(
-        &self,
-        rays: &[FlatRay],
-        occluded: bool,
-        mode: BatchMode,
-        coherent: bool,
-    ) -> Option<usize> {
-        let _ = (rays, occluded, mode, coherent);
-        None
-    }
 }
 
 /// A library's batched query mode, as a plain C caller uses it
-/// ([`Accel::trace_batched_as_c_caller`]).
+/// ([`embree::PlainC::trace_batched`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum BatchMode {
     /// Packets of 8 rays (Embree: `rtcIntersect8` / `rtcOccluded8`).

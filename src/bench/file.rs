@@ -13,7 +13,7 @@ use std::io::Write;
 use std::path::Path;
 
 use crate::geom::ray::FlatRay;
-use crate::report::measure::Query;
+use crate::measure::Query;
 
 const RAYS_MAGIC: &[u8; 8] = b"HYBRAYS1";
 const TRIANGLES_MAGIC: &[u8; 8] = b"HYBTRIS1";

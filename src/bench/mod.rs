@@ -13,9 +13,10 @@ use crate::accel::config::compared;
 use crate::accel::{Backend, BackendConfig};
 use crate::geom::ray::FlatRay;
 use crate::geom::Ray;
-pub use crate::report::measure::Settle;
-use crate::report::measure::{ray_sets, RAY_KINDS};
-pub use crate::report::paired::{batched_table, compare, compare_batched, table, PairedRow};
+use crate::measure::paired::{compare, compare_batched, PairedRow};
+pub use crate::measure::Settle;
+use crate::measure::{ray_sets, RAY_KINDS};
+pub use crate::report::paired::{batched_table, table};
 use crate::scene::builder::SceneBuilder;
 use crate::scene::{Material, NormalMode, Scene};
 use glam::Vec3;
@@ -222,7 +223,7 @@ pub fn replay(dir: &Path, settle: Settle, batched: bool) -> Result<Vec<PairedRow
         // On a one-thread pool, as the report runs it: where the traversal
         // runs moves native's speed (docs/design.md, Measuring), so the
         // two must run alike to agree.
-        rows.push(crate::report::measure::on_threads(1, || {
+        rows.push(crate::measure::on_threads(1, || {
             if batched {
                 compare_batched(kind, query, &flat, &refs, settle)
             } else {

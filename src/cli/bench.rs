@@ -8,7 +8,7 @@ use clap::{Args, Subcommand};
 
 use super::SceneInput;
 use crate::bench::{batched_table, export, replay, table};
-use crate::report::measure::{on_threads, Settle};
+use crate::measure::{on_threads, Settle};
 use crate::scene::NormalMode;
 
 #[derive(Args, Debug, Clone)]

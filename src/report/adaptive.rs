@@ -8,11 +8,11 @@ use std::path::Path;
 
 use super::budget::{Budget, SERIES_SCENE};
 use super::error::rmse;
-use super::measure::Measured;
 use super::table::{Cell, Table};
 use super::{load, load_builtin};
 use crate::accel::{Accel, BackendConfig};
 use crate::geom::sampling::luminance;
+use crate::measure::Measured;
 use crate::render::film::Film;
 use crate::render::integrator::{PathSettings, Shading};
 use crate::render::{render, Adaptive, RenderSettings, Silent};

@@ -5,11 +5,11 @@ use std::path::Path;
 
 use super::budget::{Budget, BRUTE_FORCE_SCENES};
 use super::load;
-use super::measure::Measured;
-use super::measure::{mrays, Query};
 use super::table::{Cell, Table};
 use crate::accel::config::with_and_without;
 use crate::accel::BackendConfig;
+use crate::measure::Measured;
+use crate::measure::{mrays, Query};
 use crate::parity::rays;
 
 /// One scene: camera-ray Mrays/s per configuration of [`with_and_without`].

@@ -3,7 +3,7 @@
 
 use std::path::Path;
 
-use super::measure::Settle;
+use crate::measure::Settle;
 use crate::scene::generate::sphere_cloud;
 use crate::scene::Scene;
 

@@ -7,7 +7,7 @@
 //! and traces), [`headline`] (read from the per-scene rows), [`brute`],
 //! [`error`], [`adaptive`], [`environment`], [`scaling`], [`gallery`]. [`table`] is the one writer of
 //! rows as Markdown and JSON; [`budget`] holds the sizes and scene lists;
-//! [`measure`], [`plot`], [`sheet`] and [`machine`] are their tools.
+//! [`crate::measure`], [`plot`], [`sheet`] and [`machine`] are their tools.
 
 pub mod adaptive;
 pub mod brute;
@@ -18,7 +18,6 @@ pub mod fireflies;
 pub mod gallery;
 pub mod headline;
 pub mod machine;
-pub mod measure;
 pub mod paired;
 pub mod plot;
 pub mod scaling;

@@ -13,13 +13,13 @@ use std::path::Path;
 use glam::{Mat3, Vec3};
 
 use super::budget::Budget;
-use super::measure::{mrays_interleaved, time_repeats, Measured, Query};
 use super::plot::{line_fit, loglog, loglog_slope, Series};
 use super::table::{Cell, Table};
 use crate::accel::config::compared;
 use crate::accel::BackendConfig;
 use crate::geom::sampling::{uniform_sphere, Rng};
 use crate::geom::Ray;
+use crate::measure::{mrays_interleaved, time_repeats, Measured, Query};
 use crate::scene::generate::{subdivide, SceneBuilder};
 use crate::scene::{Material, NormalMode, Scene};
 

@@ -9,17 +9,18 @@ use serde_json::{json, Value};
 
 use super::budget::Budget;
 use super::budget::ALL_BUILDS_UP_TO;
-use super::measure::{
-    mrays_interleaved, on_threads, paired_ratio, process_cpu_seconds, ray_sets, time_interleaved,
-    time_interleaved_samples, time_repeats, time_repeats_by, trace_all, trace_all_batched,
-    Measured,
-};
-use super::paired::{batched_table, compare, compare_batched, PairedRow};
+use super::paired::batched_table;
 use super::table::{Cell, Flag, Table};
 use crate::accel::config::{build_variants, compared};
 use crate::accel::{Accel, AccelStats, Backend, BackendConfig, TreeFacts};
 use crate::geom::ray::FlatRay;
 use crate::geom::Ray;
+use crate::measure::paired::{compare, compare_batched, PairedRow};
+use crate::measure::{
+    mrays_interleaved, on_threads, paired_ratio, process_cpu_seconds, ray_sets, time_interleaved,
+    time_interleaved_samples, time_repeats, time_repeats_by, trace_all, trace_all_batched,
+    Measured,
+};
 use crate::render::integrator::{PathSettings, Shading};
 use crate::render::{render, RenderSettings, Silent};
 use crate::scene::Scene;

@@ -4,7 +4,7 @@
 
 use serde_json::{Map, Value};
 
-use super::measure::Measured;
+use crate::measure::Measured;
 
 /// One value of a row.
 #[derive(Clone, Debug)]

@@ -365,18 +365,18 @@ fn embree_called_as_a_plain_c_program_gives_the_wrappers_answers() {
             "{hits} hits, {blocked} blocked"
         );
         assert_eq!(
-            embree.trace_as_c_caller(&flat(&camera), false),
+            embree.plain_c().map(|c| c.trace(&flat(&camera), false)),
             Some(hits),
             "{}: closest hits",
             version.name()
         );
         assert_eq!(
-            embree.trace_as_c_caller(&flat(&incoherent), true),
+            embree.plain_c().map(|c| c.trace(&flat(&incoherent), true)),
             Some(blocked),
             "{}: occluded rays",
             version.name()
         );
     }
-    let native = NativeBvh::build(&scene, &NativeOptions::default()).expect("native builds");
-    assert_eq!(native.trace_as_c_caller(&[], false), None);
+    let native = BackendConfig::NATIVE.build(&scene).expect("native builds");
+    assert!(native.plain_c().is_none(), "native is not a C library");
 }

@@ -386,23 +386,6 @@ impl<V: Version> Accel for EmbreeAccel<'_, V> {
         }
     }
 
-    fn trace_as_c_caller(&self, rays: &[FlatRay], occluded: bool) -> Option<usize> {
-        Some(self.scene.trace_as_c_caller(rays, occluded).0)
-    }
-
-    fn trace_batched_as_c_caller(
-        &self,
-        rays: &[FlatRay],
-        occluded: bool,
-        mode: BatchMode,
-        coherent: bool,
-    ) -> Option<usize> {
-        let traced = self
-            .scene
-            .trace_batched(mode, coherent, rays, occluded, Answers::Count)?;
-        Some(traced.0)
-    }
-
     fn stats(&self) -> AccelStats {
         AccelStats {
             backend: V::VERSION.name().into(),
@@ -417,6 +400,45 @@ impl<V: Version> Accel for EmbreeAccel<'_, V> {
             },
             details: self.description(),
         }
+    }
+}
+
+/// An Embree scene traced by the C driver (`csrc/embree_plain.c`) exactly
+/// as a plain C program traces it: the baseline that the measurement layer
+/// times hybrid against, so that no wrapper's cost is credited to the
+/// native backend. Not a query the renderer asks; only a built Embree
+/// backend has one ([`crate::accel::config::Backend::plain_c`]).
+pub trait PlainC {
+    /// One `rtcIntersect1` (or `rtcOccluded1`) per ray: the number of rays
+    /// that hit (closest hit) or are blocked (`occluded`).
+    fn trace(&self, rays: &[FlatRay], occluded: bool) -> usize;
+    /// As [`PlainC::trace`], in the library's batched `mode` with the
+    /// coherent hint or not; `None` where the library lacks the mode.
+    fn trace_batched(
+        &self,
+        rays: &[FlatRay],
+        occluded: bool,
+        mode: BatchMode,
+        coherent: bool,
+    ) -> Option<usize>;
+}
+
+impl<V: Version> PlainC for EmbreeAccel<'_, V> {
+    fn trace(&self, rays: &[FlatRay], occluded: bool) -> usize {
+        self.scene.trace_as_c_caller(rays, occluded).0
+    }
+
+    fn trace_batched(
+        &self,
+        rays: &[FlatRay],
+        occluded: bool,
+        mode: BatchMode,
+        coherent: bool,
+    ) -> Option<usize> {
+        let traced = self
+            .scene
+            .trace_batched(mode, coherent, rays, occluded, Answers::Count)?;
+        Some(traced.0)
     }
 }
 

@@ -632,9 +632,11 @@ mod tests {
         // Large enough for parallel subtrees and parallel binning.
         let boxes = random_boxes(3 * PARALLEL_BINNING.max(PARALLEL_THRESHOLD));
         let a = build(&boxes, 4, SPLIT_COST, BuildMethod::Sah);
-        let b = crate::report::measure::on_threads(1, || {
-            build(&boxes, 4, SPLIT_COST, BuildMethod::Sah)
-        });
+        let one = rayon::ThreadPoolBuilder::new()
+            .num_threads(1)
+            .build()
+            .expect("a one-thread pool");
+        let b = one.install(|| build(&boxes, 4, SPLIT_COST, BuildMethod::Sah));
         assert_eq!(a.prim_order, b.prim_order);
         assert_eq!(a.nodes.len(), b.nodes.len());
         for (x, y) in a.nodes.iter().zip(&b.nodes) {

@@ -1,6 +1,10 @@
-//! Measurement: medians of warmed-up repeats, ray throughput of a backend (or
+//! Measurement, below the report and `hybrid bench` and outside the
+//! product: medians of warmed-up repeats, ray throughput of a backend (or
 //! of two, interleaved) on a fixed ray set, single-threaded or on a pool,
-//! and the ray sets the report and the benches measure.
+//! the ray sets the report and the benches measure, and the paired replay
+//! against each library called as plain C ([`paired`]).
+
+pub mod paired;
 
 use std::time::Instant;
 
