@@ -204,7 +204,7 @@ pub struct Work {
 }
 
 /// Relative slack of the fast box test's far planes (see the module notes).
-const FAST_FAR_SCALE: f32 = 1.0 + 1.0 / (1 << 20) as f32;
+pub(super) const FAST_FAR_SCALE: f32 = 1.0 + 1.0 / (1 << 20) as f32;
 /// Absolute margins of the fast box test, relative to `|o / d|`.
 const FAST_NEAR_MARGIN: f32 = 1.0 / (1 << 22) as f32;
 const FAST_FAR_MARGIN: f32 = 1.0 / (1 << 21) as f32;

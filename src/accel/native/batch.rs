@@ -1,0 +1,531 @@
+//! Batch queries: a batch's rays in groups of the packet width, each
+//! group traced as a packet where enough of its rays share an octant
+//! ([`min_packet`]), the others one at a time (closest hits) or in
+//! streams (occlusion); the packet kernels chosen once per tree.
+
+use glam::Vec3A;
+
+use super::cpu::{Avx2, Avx512};
+use super::leaves::BlockLeaves;
+#[cfg(target_arch = "x86_64")]
+use super::leaves::BlockPacket;
+#[cfg(target_arch = "x86_64")]
+use super::traverse::packet::{self, Packet, PacketRays, Width, X16, X8};
+use super::traverse::{self, BoxRay, BoxTest, Work};
+use super::triangle::TriangleBlock4;
+use super::{
+    min_packet, node, NativeBvh, NativeOptions, TriangleStore, PREFETCH_GROUPS, SINGLE_BELOW,
+};
+use crate::accel::TraceCounters;
+use crate::geom::{Hit, Ray};
+
+/// A traceable ray prepared for the box tests, as [`NativeBvh::closest`]
+/// prepares it.
+fn box_ray_of(ray: &Ray) -> BoxRay {
+    BoxRay::new(Vec3A::from(ray.origin), Vec3A::from(ray.dir), ray.t_min)
+}
+
+/// The lanes set in `mask`, lowest first.
+fn lanes_of(mut mask: u32) -> impl Iterator<Item = usize> {
+    std::iter::from_fn(move || {
+        (mask != 0).then(|| {
+            let i = mask.trailing_zeros() as usize;
+            mask &= mask - 1;
+            i
+        })
+    })
+}
+
+/// Which packet kernels a tree's batch queries run.
+#[derive(Clone, Copy, Debug)]
+pub(super) enum PacketKernels {
+    /// Sixteen rays in AVX-512 lanes.
+    #[cfg(target_arch = "x86_64")]
+    Avx512(Avx512),
+    /// Eight rays in AVX2 lanes.
+    #[cfg(target_arch = "x86_64")]
+    Avx2(Avx2),
+    /// None: every ray alone.
+    None,
+}
+
+impl PacketKernels {
+    /// The widest kernels the CPU runs, unless `options` turn SIMD off.
+    /// What a batch query runs, as the backend's stats name it.
+    pub(super) fn describe(self) -> &'static str {
+        match self {
+            #[cfg(target_arch = "x86_64")]
+            PacketKernels::Avx512(_) => {
+                "packets of 16 rays (AVX-512) where 12 share an octant; other closest hits alone, other occlusion rays in streams of 64"
+            }
+            #[cfg(target_arch = "x86_64")]
+            PacketKernels::Avx2(_) => {
+                "packets of 8 rays (AVX2) where 6 share an octant; other closest hits alone, other occlusion rays in streams of 64"
+            }
+            PacketKernels::None => "single-ray loop (no AVX2)",
+        }
+    }
+
+    pub(super) fn detect(options: &NativeOptions) -> PacketKernels {
+        if !options.simd {
+            return PacketKernels::None;
+        }
+        #[cfg(target_arch = "x86_64")]
+        {
+            if let Some(wide) = Avx512::detect().filter(|_| options.packet_lanes != 8) {
+                return PacketKernels::Avx512(wide);
+            }
+            if let Some(cpu) = Avx2::detect() {
+                return PacketKernels::Avx2(cpu);
+            }
+        }
+        PacketKernels::None
+    }
+}
+
+/// One batch query's per-ray work, for the generic group code: the
+/// closest hit or occlusion.
+#[cfg(target_arch = "x86_64")]
+pub(super) trait Query {
+    type Answer: Copy;
+    const MISS: Self::Answer;
+    fn alone(bvh: &NativeBvh, ray: &Ray, counters: &mut TraceCounters) -> Self::Answer;
+    /// Whether the rays of a batch that no packet takes are walked
+    /// together ([`Query::rest`]) rather than one at a time.
+    const STREAMS: bool;
+    /// The rays of a batch that no packet takes (`which`: indices into
+    /// `rays`, at most [`traverse::STREAM`]), when [`Query::STREAMS`]; by
+    /// default one at a time.
+    fn rest(
+        bvh: &NativeBvh,
+        blocks: &[TriangleBlock4],
+        rays: &[Ray],
+        which: &[u32],
+        out: &mut [Self::Answer],
+        counters: &mut TraceCounters,
+    ) {
+        let _ = blocks;
+        for &i in which {
+            out[i as usize] = Self::alone(bvh, &rays[i as usize], counters);
+        }
+    }
+    /// # Safety
+    /// From `W`'s `#[target_feature]` code, with a non-empty tree.
+    unsafe fn packet<W: Width>(
+        bvh: &NativeBvh,
+        blocks: &[TriangleBlock4],
+        rays: &[Ray],
+        p: &Packet<W>,
+        out: &mut [Self::Answer],
+        work: &mut Work,
+    );
+}
+
+#[cfg(target_arch = "x86_64")]
+pub(super) struct Closest;
+
+#[cfg(target_arch = "x86_64")]
+pub(super) struct Occluded;
+
+#[cfg(target_arch = "x86_64")]
+impl Query for Closest {
+    type Answer = Option<Hit>;
+    const MISS: Option<Hit> = None;
+    // Closest hits keep single rays' front-to-back order; a stream that
+    // shares nodes loses it (not measured yet).
+    const STREAMS: bool = false;
+    fn alone(bvh: &NativeBvh, ray: &Ray, counters: &mut TraceCounters) -> Option<Hit> {
+        let vectors = ray.traceable_vectors()?;
+        bvh.closest(ray, vectors, counters)
+    }
+
+    /// Triangles together, then spheres (if any) ray by ray within each
+    /// ray's triangle hit, as [`NativeBvh::closest`] does.
+    #[inline(always)]
+    unsafe fn packet<W: Width>(
+        bvh: &NativeBvh,
+        blocks: &[TriangleBlock4],
+        rays: &[Ray],
+        p: &Packet<W>,
+        out: &mut [Option<Hit>],
+        work: &mut Work,
+    ) {
+        let mut t_max = p.rays.t_max();
+        let (tree, test, cpu) = (&bvh.triangles, bvh.box_test, bvh.cpu);
+        // Ray `i` alone from `start`, its hit kept in the packet's leaves.
+        let mut alone =
+            |leaves: &mut BlockPacket<W>, i: usize, start, t: &mut f32, work: &mut Work| {
+                // The lane's hit so far goes along: a tie at `t` is
+                // decided by its slot.
+                let mut one = BlockLeaves {
+                    blocks,
+                    ray: &rays[i],
+                    best: leaves.get(i),
+                };
+                let box_ray = box_ray_of(&rays[i]);
+                let hit = traverse::closest(tree, &box_ray, t, &mut one, cpu, test, work, start);
+                leaves.set(i, one.best);
+                hit
+            };
+        let mut leaves = BlockPacket::new(blocks, p.rays);
+        // The rays that miss the root box meet no triangle, as alone.
+        let rooted = Packet {
+            rays: p.rays,
+            mask: p.mask & p.rays.enters(tree.bounds(), W::load(&t_max)),
+        };
+        let (t, l) = (&mut t_max, &mut leaves);
+        let found = if rooted.mask == 0 {
+            0
+        } else if test == BoxTest::Fast && rooted.fast_test_fits() {
+            packet::closest::<W, false, _>(tree, &rooted, t, l, &mut alone, work, SINGLE_BELOW)
+        } else {
+            packet::closest::<W, true, _>(tree, &rooted, t, l, &mut alone, work, SINGLE_BELOW)
+        };
+        // Without spheres a miss is one store, and no lane's branch depends
+        // on whether it hit.
+        let all = if bvh.sphere_items.is_empty() {
+            for i in lanes_of(p.mask & !found) {
+                out[i] = None;
+            }
+            found
+        } else {
+            p.mask
+        };
+        for i in lanes_of(all) {
+            let mut hit = leaves.hit(i).map(|(prim, u, v)| Hit {
+                t: t_max[i],
+                prim,
+                u,
+                v,
+            });
+            if !bvh.sphere_items.is_empty() {
+                let box_ray = box_ray_of(&rays[i]);
+                hit = bvh
+                    .closest_sphere(&rays[i], &box_ray, &mut t_max[i], work)
+                    .or(hit);
+            }
+            out[i] = hit;
+        }
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+impl Query for Occluded {
+    type Answer = bool;
+    const MISS: bool = false;
+    const STREAMS: bool = true;
+    fn alone(bvh: &NativeBvh, ray: &Ray, counters: &mut TraceCounters) -> bool {
+        ray.traceable_vectors()
+            .is_some_and(|v| bvh.any(ray, v, counters))
+    }
+
+    /// As one stream ([`traverse::any_stream`]): incoherent occlusion rays
+    /// share the nodes they enter (CBbunny's random shadow rays 1.3-1.4x
+    /// single rays, AVX2; docs/experiments.md, stop 43).
+    fn rest(
+        bvh: &NativeBvh,
+        blocks: &[TriangleBlock4],
+        rays: &[Ray],
+        which: &[u32],
+        out: &mut [bool],
+        counters: &mut TraceCounters,
+    ) {
+        let Some(cpu) = bvh.cpu else {
+            for &i in which {
+                out[i as usize] = Self::alone(bvh, &rays[i as usize], counters);
+            }
+            return;
+        };
+        let mut work = Work::default();
+        let unused = BoxRay::new(Vec3A::ZERO, Vec3A::X, 0.0);
+        let mut box_rays = [unused; traverse::STREAM];
+        let mut t_max = [0.0f32; traverse::STREAM];
+        let mut active = 0u64;
+        for (k, &i) in which.iter().enumerate() {
+            let ray = &rays[i as usize];
+            if let Some((o, d)) = ray.traceable_vectors() {
+                active |= 1 << k;
+                box_rays[k] = BoxRay::new(o, d, ray.t_min);
+            }
+            t_max[k] = ray.t_max;
+        }
+        let n = which.len();
+        let mut leaves = |k: usize| BlockLeaves {
+            blocks,
+            ray: &rays[which[k] as usize],
+            best: None,
+        };
+        let (tree, test) = (&bvh.triangles, bvh.box_test);
+        let blocked = traverse::any_stream(
+            tree,
+            &box_rays[..n],
+            &t_max[..n],
+            active,
+            &mut leaves,
+            cpu,
+            test,
+            &mut work,
+        );
+        for (k, &i) in which.iter().enumerate() {
+            let ray = &rays[i as usize];
+            out[i as usize] = blocked >> k & 1 != 0
+                || (active >> k & 1 != 0
+                    && !bvh.sphere_items.is_empty()
+                    && bvh.any_sphere(ray, &box_rays[k], &mut work));
+        }
+        counters.box_tests += work.nodes * node::WIDTH as u64;
+        counters.prim_tests += work.items;
+    }
+
+    /// Triangles together, then spheres ray by ray for those not blocked,
+    /// as [`NativeBvh::any`] does.
+    #[inline(always)]
+    unsafe fn packet<W: Width>(
+        bvh: &NativeBvh,
+        blocks: &[TriangleBlock4],
+        rays: &[Ray],
+        p: &Packet<W>,
+        out: &mut [bool],
+        work: &mut Work,
+    ) {
+        let t_max = p.rays.t_max();
+        let (tree, test, cpu) = (&bvh.triangles, bvh.box_test, bvh.cpu);
+        let mut alone = |_: &mut BlockPacket<W>, i: usize, start, t: f32, work: &mut Work| {
+            let mut one = BlockLeaves {
+                blocks,
+                ray: &rays[i],
+                best: None,
+            };
+            let box_ray = box_ray_of(&rays[i]);
+            traverse::any(tree, &box_ray, t, &mut one, cpu, test, work, start)
+        };
+        let mut leaves = BlockPacket::new(blocks, p.rays);
+        // The rays that miss the root box meet no triangle, as alone.
+        let rooted = Packet {
+            rays: p.rays,
+            mask: p.mask & p.rays.enters(tree.bounds(), W::load(&t_max)),
+        };
+        let l = &mut leaves;
+        let blocked = if rooted.mask == 0 {
+            0
+        } else if test == BoxTest::Fast && rooted.fast_test_fits() {
+            packet::any::<W, false, _>(tree, &rooted, &t_max, l, &mut alone, work, SINGLE_BELOW)
+        } else {
+            packet::any::<W, true, _>(tree, &rooted, &t_max, l, &mut alone, work, SINGLE_BELOW)
+        };
+        for i in lanes_of(p.mask) {
+            out[i] = blocked & (1 << i) != 0
+                || (!bvh.sphere_items.is_empty()
+                    && bvh.any_sphere(&rays[i], &box_ray_of(&rays[i]), work));
+        }
+    }
+}
+
+impl NativeBvh {
+    /// A group of up to `W::N` rays of a batch query: the traceable ones
+    /// of one octant as a packet when there are [`min_packet`] of them,
+    /// the others one at a time.
+    ///
+    /// # Safety
+    /// From `W`'s `#[target_feature]` code; the triangle tree is not
+    /// empty.
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    unsafe fn group<W: Width, Q: Query>(
+        &self,
+        blocks: &[TriangleBlock4],
+        rays: &[Ray],
+        out: &mut [Q::Answer],
+        counters: &mut TraceCounters,
+    ) {
+        let prepared = PacketRays::<W>::load(rays);
+        let mut rest = prepared.traceable;
+        let lanes = (1u32 << out.len()) - 1;
+        for i in lanes_of(lanes & !rest) {
+            out[i] = Q::MISS;
+        }
+        let mut work = Work::default();
+        while rest != 0 {
+            let group = prepared.same_octant(rest);
+            rest &= !group;
+            if group.count_ones() >= min_packet(W::N) {
+                let p = Packet {
+                    rays: &prepared,
+                    mask: group,
+                };
+                Q::packet::<W>(self, blocks, rays, &p, out, &mut work);
+            } else {
+                for i in lanes_of(group) {
+                    out[i] = Q::alone(self, &rays[i], counters);
+                }
+            }
+        }
+        counters.box_tests += work.nodes * node::WIDTH as u64;
+        counters.prim_tests += work.items;
+    }
+
+    /// [`Self::group`] with eight rays in AVX2 lanes.
+    ///
+    /// # Safety
+    /// The CPU has AVX2 (the caller holds the token); the triangle tree is
+    /// not empty.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma,popcnt,lzcnt,bmi1,bmi2")]
+    unsafe fn group8<Q: Query>(
+        &self,
+        blocks: &[TriangleBlock4],
+        rays: &[Ray],
+        out: &mut [Q::Answer],
+        counters: &mut TraceCounters,
+    ) {
+        self.group::<X8, Q>(blocks, rays, out, counters)
+    }
+
+    /// [`Self::group`] with sixteen rays in AVX-512 lanes.
+    ///
+    /// # Safety
+    /// The CPU has AVX-512F and AVX2 (the caller holds the token); the
+    /// triangle tree is not empty.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx512f,avx2,fma,popcnt,lzcnt,bmi1,bmi2")]
+    unsafe fn group16<Q: Query>(
+        &self,
+        blocks: &[TriangleBlock4],
+        rays: &[Ray],
+        out: &mut [Q::Answer],
+        counters: &mut TraceCounters,
+    ) {
+        self.group::<X16, Q>(blocks, rays, out, counters)
+    }
+
+    /// A batch query through the packet kernels this tree may run; `None`
+    /// when it may not (no AVX2, watertight triangles, no triangles).
+    #[cfg(target_arch = "x86_64")]
+    pub(super) fn batch<Q: Query>(
+        &self,
+        rays: &[Ray],
+        out: &mut [Q::Answer],
+        counters: &mut TraceCounters,
+    ) -> Option<()> {
+        let TriangleStore::Blocks(blocks) = &self.triangle_store else {
+            return None;
+        };
+        if self.triangles.is_empty() {
+            return None;
+        }
+        type Group<Q> = unsafe fn(
+            &NativeBvh,
+            &[TriangleBlock4],
+            &[Ray],
+            &mut [<Q as Query>::Answer],
+            &mut TraceCounters,
+        );
+        let (group, lanes): (Group<Q>, usize) = match self.packets {
+            PacketKernels::Avx512(_) => (Self::group16::<Q>, 16),
+            PacketKernels::Avx2(_) => (Self::group8::<Q>, 8),
+            PacketKernels::None => return None,
+        };
+        // Rays of groups that form no packet, traced together once there
+        // are a stream's worth.
+        let mut pending = [0u32; traverse::STREAM];
+        let mut waiting = 0;
+        for start in (0..rays.len()).step_by(lanes) {
+            let end = rays.len().min(start + lanes);
+            let group_rays = &rays[start..end];
+            counters.rays += group_rays.len() as u64;
+            // The rays of the group after next, half a cache line each:
+            // their first loads otherwise wait for memory.
+            let ahead = rays.as_ptr().wrapping_add(start + PREFETCH_GROUPS * lanes);
+            for line in 0..lanes / 2 {
+                let line = ahead.cast::<i8>().wrapping_add(64 * line);
+                // SAFETY: SSE is in every x86_64 CPU, and a prefetch never
+                // faults, whatever the address.
+                unsafe {
+                    std::arch::x86_64::_mm_prefetch::<{ std::arch::x86_64::_MM_HINT_T0 }>(line)
+                };
+            }
+            let packs = packet::packet_can_form(group_rays, min_packet(lanes));
+            if !packs && !Q::STREAMS {
+                // No packet can form: the rays go alone, as single-ray
+                // queries do, outside the lanes' code (traced from inside
+                // it, incoherent batches ran at 0.93x single rays).
+                for (ray, answer) in group_rays.iter().zip(&mut out[start..end]) {
+                    *answer = Q::alone(self, ray, counters);
+                }
+                continue;
+            }
+            if !packs {
+                // Or they wait for a stream's worth, traced together.
+                for i in start..end {
+                    pending[waiting] = i as u32;
+                    waiting += 1;
+                    if waiting == traverse::STREAM {
+                        Q::rest(self, blocks, rays, &pending, out, counters);
+                        waiting = 0;
+                    }
+                }
+                continue;
+            }
+            // SAFETY: the kernels were chosen by the token that proves
+            // their CPU features; the triangle tree is not empty (checked
+            // above).
+            unsafe { group(self, blocks, group_rays, &mut out[start..end], counters) };
+        }
+        if waiting > 0 {
+            Q::rest(self, blocks, rays, &pending[..waiting], out, counters);
+        }
+        Some(())
+    }
+}
+
+#[cfg(all(test, target_arch = "x86_64"))]
+mod tests {
+    use super::*;
+    use crate::accel::Accel;
+    use crate::parity::rays::{occlusion_rays, shadow_rays};
+    use crate::scene::builtin::CORNELL;
+    use crate::scene::NormalMode;
+    use glam::Vec3;
+
+    /// Occlusion streams answer as single rays do, ray for ray: full
+    /// streams of random rays, short ones (walked alone from the root), the
+    /// renderer's light rays, and rays that cannot be traced at all.
+    #[test]
+    fn occlusion_streams_answer_as_single_rays() {
+        if Avx2::detect().is_none() {
+            return;
+        }
+        let scene = CORNELL
+            .load(NormalMode::Smooth)
+            .expect("the default scene loads");
+        let bvh = NativeBvh::build(&scene, &NativeOptions::DEFAULT).expect("native builds");
+        let TriangleStore::Blocks(blocks) = &bvh.triangle_store else {
+            panic!("the default options store triangle blocks");
+        };
+        let mut rays = occlusion_rays(&scene, 3_000, 7);
+        rays.extend(shadow_rays(&scene, &bvh, 3_000, 8));
+        rays[5].dir = Vec3::ZERO;
+        rays[70].origin.y = f32::NAN;
+        let mut alone = TraceCounters::default();
+        let single: Vec<bool> = rays.iter().map(|r| bvh.occluded(r, &mut alone)).collect();
+        assert!(single.iter().any(|&b| b) && single.iter().any(|&b| !b));
+        for size in [traverse::STREAM, 37, 3] {
+            let mut out = vec![false; rays.len()];
+            let mut streams = TraceCounters::default();
+            for start in (0..rays.len()).step_by(size) {
+                let which: Vec<u32> = (start..rays.len().min(start + size))
+                    .map(|i| i as u32)
+                    .collect();
+                Occluded::rest(&bvh, blocks, &rays, &which, &mut out, &mut streams);
+            }
+            assert_eq!(out, single, "streams of {size} rays");
+            // Each ray meets the nodes and leaves of its single-ray walk,
+            // in the same order, up to the same leaf: the same counts.
+            assert_eq!(
+                (streams.box_tests, streams.prim_tests),
+                (alone.box_tests, alone.prim_tests),
+                "streams of {size} rays: node and leaf tests"
+            );
+        }
+    }
+}
