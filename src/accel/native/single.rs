@@ -17,6 +17,7 @@ impl NativeBvh {
     /// `vectors` ([`Ray::traceable_vectors`], read once by the caller). Watertight
     /// triangles and spheres are tested out of line, so that the common
     /// case, Möller–Trumbore blocks alone, stays small.
+    #[inline]
     pub(super) fn closest(
         &self,
         ray: &Ray,
@@ -148,6 +149,7 @@ impl NativeBvh {
     }
 
     /// Whether anything blocks a traceable `ray`, as [`Self::closest`].
+    #[inline]
     pub(super) fn any(
         &self,
         ray: &Ray,
