@@ -16,6 +16,9 @@
 // `!(x > 0.0)` is how this crate refuses NaN together with the values out
 // of range; the `partial_cmp` form the lint asks for hides that.
 #![allow(clippy::neg_cmp_op_on_partial_ord)]
+// Every unsafe operation sits in an `unsafe` block with its own SAFETY
+// note, also inside `unsafe fn`s.
+#![deny(unsafe_op_in_unsafe_fn)]
 
 pub mod accel;
 pub mod bench;

@@ -15,6 +15,7 @@ mod raw {
         non_camel_case_types,
         non_snake_case,
         dead_code,
+        unsafe_op_in_unsafe_fn,
         clippy::all
     )]
     include!(concat!(env!("OUT_DIR"), "/embree3_bindings.rs"));
@@ -121,10 +122,12 @@ fn context(flags: raw::RTCIntersectContextFlags) -> raw::RTCIntersectContext {
 // Embree 3's headers above.
 unsafe impl Api for Embree3 {
     unsafe fn new_device(&self, config: *const c_char) -> Handle {
-        self.0.rtcNewDevice(config) as Handle
+        // SAFETY: the `Api` contract: live handles of this library, valid pointers.
+        unsafe { self.0.rtcNewDevice(config) as Handle }
     }
     unsafe fn device_error(&self, device: Handle) -> u32 {
-        self.0.rtcGetDeviceError(device as raw::RTCDevice)
+        // SAFETY: the `Api` contract: live handles of this library, valid pointers.
+        unsafe { self.0.rtcGetDeviceError(device as raw::RTCDevice) }
     }
     unsafe fn set_error_function(
         &self,
@@ -132,8 +135,11 @@ unsafe impl Api for Embree3 {
         f: Option<ErrorFunction>,
         user: *mut c_void,
     ) {
-        self.0
-            .rtcSetDeviceErrorFunction(device as raw::RTCDevice, f, user)
+        // SAFETY: the `Api` contract: live handles of this library, valid pointers.
+        unsafe {
+            self.0
+                .rtcSetDeviceErrorFunction(device as raw::RTCDevice, f, user)
+        }
     }
     unsafe fn set_memory_monitor(
         &self,
@@ -141,34 +147,49 @@ unsafe impl Api for Embree3 {
         f: Option<MemoryMonitor>,
         user: *mut c_void,
     ) {
-        self.0
-            .rtcSetDeviceMemoryMonitorFunction(device as raw::RTCDevice, f, user)
+        // SAFETY: the `Api` contract: live handles of this library, valid pointers.
+        unsafe {
+            self.0
+                .rtcSetDeviceMemoryMonitorFunction(device as raw::RTCDevice, f, user)
+        }
     }
     unsafe fn device_property(&self, device: Handle, property: u32) -> isize {
-        self.0
-            .rtcGetDeviceProperty(device as raw::RTCDevice, property)
+        // SAFETY: the `Api` contract: live handles of this library, valid pointers.
+        unsafe {
+            self.0
+                .rtcGetDeviceProperty(device as raw::RTCDevice, property)
+        }
     }
     unsafe fn release_device(&self, device: Handle) {
-        self.0.rtcReleaseDevice(device as raw::RTCDevice)
+        // SAFETY: the `Api` contract: live handles of this library, valid pointers.
+        unsafe { self.0.rtcReleaseDevice(device as raw::RTCDevice) }
     }
     unsafe fn new_scene(&self, device: Handle) -> Handle {
-        self.0.rtcNewScene(device as raw::RTCDevice) as Handle
+        // SAFETY: the `Api` contract: live handles of this library, valid pointers.
+        unsafe { self.0.rtcNewScene(device as raw::RTCDevice) as Handle }
     }
     unsafe fn set_build_quality(&self, scene: Handle, quality: u32) {
-        self.0
-            .rtcSetSceneBuildQuality(scene as raw::RTCScene, quality)
+        // SAFETY: the `Api` contract: live handles of this library, valid pointers.
+        unsafe {
+            self.0
+                .rtcSetSceneBuildQuality(scene as raw::RTCScene, quality)
+        }
     }
     unsafe fn set_scene_flags(&self, scene: Handle, flags: u32) {
-        self.0.rtcSetSceneFlags(scene as raw::RTCScene, flags)
+        // SAFETY: the `Api` contract: live handles of this library, valid pointers.
+        unsafe { self.0.rtcSetSceneFlags(scene as raw::RTCScene, flags) }
     }
     unsafe fn commit_scene(&self, scene: Handle) {
-        self.0.rtcCommitScene(scene as raw::RTCScene)
+        // SAFETY: the `Api` contract: live handles of this library, valid pointers.
+        unsafe { self.0.rtcCommitScene(scene as raw::RTCScene) }
     }
     unsafe fn release_scene(&self, scene: Handle) {
-        self.0.rtcReleaseScene(scene as raw::RTCScene)
+        // SAFETY: the `Api` contract: live handles of this library, valid pointers.
+        unsafe { self.0.rtcReleaseScene(scene as raw::RTCScene) }
     }
     unsafe fn new_geometry(&self, device: Handle, kind: u32) -> Handle {
-        self.0.rtcNewGeometry(device as raw::RTCDevice, kind) as Handle
+        // SAFETY: the `Api` contract: live handles of this library, valid pointers.
+        unsafe { self.0.rtcNewGeometry(device as raw::RTCDevice, kind) as Handle }
     }
     unsafe fn set_shared_buffer(
         &self,
@@ -180,16 +201,19 @@ unsafe impl Api for Embree3 {
         stride: usize,
         count: usize,
     ) {
-        self.0.rtcSetSharedGeometryBuffer(
-            geometry as raw::RTCGeometry,
-            kind,
-            0,
-            format,
-            ptr,
-            offset,
-            stride,
-            count,
-        )
+        // SAFETY: the `Api` contract: live handles of this library, valid pointers.
+        unsafe {
+            self.0.rtcSetSharedGeometryBuffer(
+                geometry as raw::RTCGeometry,
+                kind,
+                0,
+                format,
+                ptr,
+                offset,
+                stride,
+                count,
+            )
+        }
     }
     unsafe fn set_new_buffer(
         &self,
@@ -199,39 +223,59 @@ unsafe impl Api for Embree3 {
         stride: usize,
         count: usize,
     ) -> *mut c_void {
-        self.0
-            .rtcSetNewGeometryBuffer(geometry as raw::RTCGeometry, kind, 0, format, stride, count)
+        // SAFETY: the `Api` contract: live handles of this library, valid pointers.
+        unsafe {
+            self.0.rtcSetNewGeometryBuffer(
+                geometry as raw::RTCGeometry,
+                kind,
+                0,
+                format,
+                stride,
+                count,
+            )
+        }
     }
     unsafe fn commit_geometry(&self, geometry: Handle) {
-        self.0.rtcCommitGeometry(geometry as raw::RTCGeometry)
+        // SAFETY: the `Api` contract: live handles of this library, valid pointers.
+        unsafe { self.0.rtcCommitGeometry(geometry as raw::RTCGeometry) }
     }
     unsafe fn attach_geometry(&self, scene: Handle, geometry: Handle) -> u32 {
-        self.0
-            .rtcAttachGeometry(scene as raw::RTCScene, geometry as raw::RTCGeometry)
+        // SAFETY: the `Api` contract: live handles of this library, valid pointers.
+        unsafe {
+            self.0
+                .rtcAttachGeometry(scene as raw::RTCScene, geometry as raw::RTCGeometry)
+        }
     }
     unsafe fn release_geometry(&self, geometry: Handle) {
-        self.0.rtcReleaseGeometry(geometry as raw::RTCGeometry)
+        // SAFETY: the `Api` contract: live handles of this library, valid pointers.
+        unsafe { self.0.rtcReleaseGeometry(geometry as raw::RTCGeometry) }
     }
 
     #[inline(always)]
     unsafe fn intersect1(&self, scene: Handle, ray: RawRay) -> Option<RawHit> {
-        let mut rayhit = make_rayhit(ray);
-        let mut ctx = context(raw::RTC_INTERSECT_CONTEXT_FLAG_INCOHERENT);
-        // `rayhit` is a 16-byte aligned RTCRayHit (bindgen keeps the
-        // header's alignment), initialised as the API requires.
-        self.0
-            .rtcIntersect1(scene as raw::RTCScene, &mut ctx, &mut rayhit);
-        raw_hit(&rayhit)
+        // SAFETY: the `Api` contract: live handles of this library, valid pointers.
+        unsafe {
+            let mut rayhit = make_rayhit(ray);
+            let mut ctx = context(raw::RTC_INTERSECT_CONTEXT_FLAG_INCOHERENT);
+            // `rayhit` is a 16-byte aligned RTCRayHit (bindgen keeps the
+            // header's alignment), initialised as the API requires.
+            self.0
+                .rtcIntersect1(scene as raw::RTCScene, &mut ctx, &mut rayhit);
+            raw_hit(&rayhit)
+        }
     }
 
     #[inline(always)]
     unsafe fn occluded1(&self, scene: Handle, ray: RawRay) -> bool {
-        let mut ray = make_ray(ray);
-        let mut ctx = context(raw::RTC_INTERSECT_CONTEXT_FLAG_INCOHERENT);
-        self.0
-            .rtcOccluded1(scene as raw::RTCScene, &mut ctx, &mut ray);
-        // Embree sets tfar to -inf on a hit.
-        ray.tfar == f32::NEG_INFINITY
+        // SAFETY: the `Api` contract: live handles of this library, valid pointers.
+        unsafe {
+            let mut ray = make_ray(ray);
+            let mut ctx = context(raw::RTC_INTERSECT_CONTEXT_FLAG_INCOHERENT);
+            self.0
+                .rtcOccluded1(scene as raw::RTCScene, &mut ctx, &mut ray);
+            // Embree sets tfar to -inf on a hit.
+            ray.tfar == f32::NEG_INFINITY
+        }
     }
 
     fn c_functions(&self) -> CFunctions {

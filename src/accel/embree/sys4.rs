@@ -66,6 +66,8 @@ macro_rules! table {
             #[allow(non_snake_case)]
             unsafe fn load(library: Library) -> Result<Table, libloading::Error> {
                 $(let $name = *unsafe {
+                    // SAFETY: the caller's contract: this is Embree 4, and
+                    // the symbol has the signature the table gives it.
                     library.get::<unsafe extern "C" fn($($arg),*) $(-> $ret)?>(
                         concat!(stringify!($name), "\0").as_bytes(),
                     )
@@ -243,10 +245,12 @@ fn raw_hit(rh: &RayHit) -> Option<RawHit> {
 // Embree 4's headers above.
 unsafe impl Api for Embree4 {
     unsafe fn new_device(&self, config: *const c_char) -> Handle {
-        (self.table.rtcNewDevice)(config)
+        // SAFETY: the `Api` contract: live handles of this library, valid pointers.
+        unsafe { (self.table.rtcNewDevice)(config) }
     }
     unsafe fn device_error(&self, device: Handle) -> u32 {
-        (self.table.rtcGetDeviceError)(device)
+        // SAFETY: the `Api` contract: live handles of this library, valid pointers.
+        unsafe { (self.table.rtcGetDeviceError)(device) }
     }
     unsafe fn set_error_function(
         &self,
@@ -254,7 +258,8 @@ unsafe impl Api for Embree4 {
         f: Option<ErrorFunction>,
         user: *mut c_void,
     ) {
-        (self.table.rtcSetDeviceErrorFunction)(device, f, user)
+        // SAFETY: the `Api` contract: live handles of this library, valid pointers.
+        unsafe { (self.table.rtcSetDeviceErrorFunction)(device, f, user) }
     }
     unsafe fn set_memory_monitor(
         &self,
@@ -262,31 +267,40 @@ unsafe impl Api for Embree4 {
         f: Option<MemoryMonitor>,
         user: *mut c_void,
     ) {
-        (self.table.rtcSetDeviceMemoryMonitorFunction)(device, f, user)
+        // SAFETY: the `Api` contract: live handles of this library, valid pointers.
+        unsafe { (self.table.rtcSetDeviceMemoryMonitorFunction)(device, f, user) }
     }
     unsafe fn device_property(&self, device: Handle, property: u32) -> isize {
-        (self.table.rtcGetDeviceProperty)(device, property)
+        // SAFETY: the `Api` contract: live handles of this library, valid pointers.
+        unsafe { (self.table.rtcGetDeviceProperty)(device, property) }
     }
     unsafe fn release_device(&self, device: Handle) {
-        (self.table.rtcReleaseDevice)(device)
+        // SAFETY: the `Api` contract: live handles of this library, valid pointers.
+        unsafe { (self.table.rtcReleaseDevice)(device) }
     }
     unsafe fn new_scene(&self, device: Handle) -> Handle {
-        (self.table.rtcNewScene)(device)
+        // SAFETY: the `Api` contract: live handles of this library, valid pointers.
+        unsafe { (self.table.rtcNewScene)(device) }
     }
     unsafe fn set_build_quality(&self, scene: Handle, quality: u32) {
-        (self.table.rtcSetSceneBuildQuality)(scene, quality)
+        // SAFETY: the `Api` contract: live handles of this library, valid pointers.
+        unsafe { (self.table.rtcSetSceneBuildQuality)(scene, quality) }
     }
     unsafe fn set_scene_flags(&self, scene: Handle, flags: u32) {
-        (self.table.rtcSetSceneFlags)(scene, flags)
+        // SAFETY: the `Api` contract: live handles of this library, valid pointers.
+        unsafe { (self.table.rtcSetSceneFlags)(scene, flags) }
     }
     unsafe fn commit_scene(&self, scene: Handle) {
-        (self.table.rtcCommitScene)(scene)
+        // SAFETY: the `Api` contract: live handles of this library, valid pointers.
+        unsafe { (self.table.rtcCommitScene)(scene) }
     }
     unsafe fn release_scene(&self, scene: Handle) {
-        (self.table.rtcReleaseScene)(scene)
+        // SAFETY: the `Api` contract: live handles of this library, valid pointers.
+        unsafe { (self.table.rtcReleaseScene)(scene) }
     }
     unsafe fn new_geometry(&self, device: Handle, kind: u32) -> Handle {
-        (self.table.rtcNewGeometry)(device, kind)
+        // SAFETY: the `Api` contract: live handles of this library, valid pointers.
+        unsafe { (self.table.rtcNewGeometry)(device, kind) }
     }
     unsafe fn set_shared_buffer(
         &self,
@@ -298,9 +312,12 @@ unsafe impl Api for Embree4 {
         stride: usize,
         count: usize,
     ) {
-        (self.table.rtcSetSharedGeometryBuffer)(
-            geometry, kind, 0, format, ptr, offset, stride, count,
-        )
+        // SAFETY: the `Api` contract: live handles of this library, valid pointers.
+        unsafe {
+            (self.table.rtcSetSharedGeometryBuffer)(
+                geometry, kind, 0, format, ptr, offset, stride, count,
+            )
+        }
     }
     unsafe fn set_new_buffer(
         &self,
@@ -310,33 +327,43 @@ unsafe impl Api for Embree4 {
         stride: usize,
         count: usize,
     ) -> *mut c_void {
-        (self.table.rtcSetNewGeometryBuffer)(geometry, kind, 0, format, stride, count)
+        // SAFETY: the `Api` contract: live handles of this library, valid pointers.
+        unsafe { (self.table.rtcSetNewGeometryBuffer)(geometry, kind, 0, format, stride, count) }
     }
     unsafe fn commit_geometry(&self, geometry: Handle) {
-        (self.table.rtcCommitGeometry)(geometry)
+        // SAFETY: the `Api` contract: live handles of this library, valid pointers.
+        unsafe { (self.table.rtcCommitGeometry)(geometry) }
     }
     unsafe fn attach_geometry(&self, scene: Handle, geometry: Handle) -> u32 {
-        (self.table.rtcAttachGeometry)(scene, geometry)
+        // SAFETY: the `Api` contract: live handles of this library, valid pointers.
+        unsafe { (self.table.rtcAttachGeometry)(scene, geometry) }
     }
     unsafe fn release_geometry(&self, geometry: Handle) {
-        (self.table.rtcReleaseGeometry)(geometry)
+        // SAFETY: the `Api` contract: live handles of this library, valid pointers.
+        unsafe { (self.table.rtcReleaseGeometry)(geometry) }
     }
 
     #[inline(always)]
     unsafe fn intersect1(&self, scene: Handle, ray: RawRay) -> Option<RawHit> {
-        let mut rayhit = make_rayhit(ray);
-        let mut args = intersect_arguments(e4::RTCRayQueryFlags::INCOHERENT);
-        (self.table.rtcIntersect1)(scene, &mut rayhit, &mut args);
-        raw_hit(&rayhit)
+        // SAFETY: the `Api` contract: live handles of this library, valid pointers.
+        unsafe {
+            let mut rayhit = make_rayhit(ray);
+            let mut args = intersect_arguments(e4::RTCRayQueryFlags::INCOHERENT);
+            (self.table.rtcIntersect1)(scene, &mut rayhit, &mut args);
+            raw_hit(&rayhit)
+        }
     }
 
     #[inline(always)]
     unsafe fn occluded1(&self, scene: Handle, ray: RawRay) -> bool {
-        let mut ray = make_ray(ray);
-        let mut args = occluded_arguments(e4::RTCRayQueryFlags::INCOHERENT);
-        (self.table.rtcOccluded1)(scene, &mut ray, &mut args);
-        // Embree sets tfar to -inf on a hit.
-        ray.tfar == f32::NEG_INFINITY
+        // SAFETY: the `Api` contract: live handles of this library, valid pointers.
+        unsafe {
+            let mut ray = make_ray(ray);
+            let mut args = occluded_arguments(e4::RTCRayQueryFlags::INCOHERENT);
+            (self.table.rtcOccluded1)(scene, &mut ray, &mut args);
+            // Embree sets tfar to -inf on a hit.
+            ray.tfar == f32::NEG_INFINITY
+        }
     }
 
     fn c_functions(&self) -> CFunctions {

@@ -150,61 +150,67 @@ impl Query for Closest {
         out: &mut [Option<Hit>],
         work: &mut Work,
     ) {
-        let mut t_max = p.rays.t_max();
-        let (tree, test, cpu) = (&bvh.triangles, bvh.box_test, bvh.cpu);
-        // Ray `i` alone from `start`, its hit kept in the packet's leaves.
-        let mut alone =
-            |leaves: &mut BlockPacket<W>, i: usize, start, t: &mut f32, work: &mut Work| {
-                // The lane's hit so far goes along: a tie at `t` is
-                // decided by its slot.
-                let mut one = BlockLeaves {
-                    blocks,
-                    ray: &rays[i],
-                    best: leaves.get(i),
+        // SAFETY: the caller upholds this kernel's contract: the width's CPU features are
+        // enabled (a detected token chose this code) and the tree was checked by
+        // `Tree::new`, so every node reference read from it is in range.
+        unsafe {
+            let mut t_max = p.rays.t_max();
+            let (tree, test, cpu) = (&bvh.triangles, bvh.box_test, bvh.cpu);
+            // Ray `i` alone from `start`, its hit kept in the packet's leaves.
+            let mut alone =
+                |leaves: &mut BlockPacket<W>, i: usize, start, t: &mut f32, work: &mut Work| {
+                    // The lane's hit so far goes along: a tie at `t` is
+                    // decided by its slot.
+                    let mut one = BlockLeaves {
+                        blocks,
+                        ray: &rays[i],
+                        best: leaves.get(i),
+                    };
+                    let box_ray = box_ray_of(&rays[i]);
+                    let hit =
+                        traverse::closest(tree, &box_ray, t, &mut one, cpu, test, work, start);
+                    leaves.set(i, one.best);
+                    hit
                 };
-                let box_ray = box_ray_of(&rays[i]);
-                let hit = traverse::closest(tree, &box_ray, t, &mut one, cpu, test, work, start);
-                leaves.set(i, one.best);
-                hit
+            let mut leaves = BlockPacket::new(blocks, p.rays);
+            // The rays that miss the root box meet no triangle, as alone.
+            let rooted = Packet {
+                rays: p.rays,
+                mask: p.mask & p.rays.enters(tree.bounds(), W::load(&t_max)),
             };
-        let mut leaves = BlockPacket::new(blocks, p.rays);
-        // The rays that miss the root box meet no triangle, as alone.
-        let rooted = Packet {
-            rays: p.rays,
-            mask: p.mask & p.rays.enters(tree.bounds(), W::load(&t_max)),
-        };
-        let (t, l) = (&mut t_max, &mut leaves);
-        let found = if rooted.mask == 0 {
-            0
-        } else if test == BoxTest::Fast && rooted.fast_test_fits() {
-            packet::closest::<W, false, _>(tree, &rooted, t, l, &mut alone, work, SINGLE_BELOW)
-        } else {
-            packet::closest::<W, true, _>(tree, &rooted, t, l, &mut alone, work, SINGLE_BELOW)
-        };
-        // Without spheres a miss is one store, and no lane's branch depends
-        // on whether it hit.
-        let all = if bvh.sphere_items.is_empty() {
-            for i in lanes_of(p.mask & !found) {
-                out[i] = None;
+            let (t, l) = (&mut t_max, &mut leaves);
+            let found = if rooted.mask == 0 {
+                0
+            } else if test == BoxTest::Fast && rooted.fast_test_fits() {
+                packet::closest::<W, false, _>(tree, &rooted, t, l, &mut alone, work, SINGLE_BELOW)
+            } else {
+                packet::closest::<W, true, _>(tree, &rooted, t, l, &mut alone, work, SINGLE_BELOW)
+            };
+            // Without spheres a miss is one store, and no lane's branch depends
+            // on whether it hit.
+            let all = if bvh.sphere_items.is_empty() {
+                for i in lanes_of(p.mask & !found) {
+                    out[i] = None;
+                }
+                found
+            } else {
+                p.mask
+            };
+            for i in lanes_of(all) {
+                let mut hit = leaves.hit(i).map(|(prim, u, v)| Hit {
+                    t: t_max[i],
+                    prim,
+                    u,
+                    v,
+                });
+                if !bvh.sphere_items.is_empty() {
+                    let box_ray = box_ray_of(&rays[i]);
+                    hit = bvh
+                        .closest_sphere(&rays[i], &box_ray, &mut t_max[i], work)
+                        .or(hit);
+                }
+                out[i] = hit;
             }
-            found
-        } else {
-            p.mask
-        };
-        for i in lanes_of(all) {
-            let mut hit = leaves.hit(i).map(|(prim, u, v)| Hit {
-                t: t_max[i],
-                prim,
-                u,
-                v,
-            });
-            if !bvh.sphere_items.is_empty() {
-                let box_ray = box_ray_of(&rays[i]);
-                hit = bvh
-                    .closest_sphere(&rays[i], &box_ray, &mut t_max[i], work)
-                    .or(hit);
-            }
-            out[i] = hit;
         }
     }
 }
@@ -288,35 +294,40 @@ impl Query for Occluded {
         out: &mut [bool],
         work: &mut Work,
     ) {
-        let t_max = p.rays.t_max();
-        let (tree, test, cpu) = (&bvh.triangles, bvh.box_test, bvh.cpu);
-        let mut alone = |_: &mut BlockPacket<W>, i: usize, start, t: f32, work: &mut Work| {
-            let mut one = BlockLeaves {
-                blocks,
-                ray: &rays[i],
-                best: None,
+        // SAFETY: the caller upholds this kernel's contract: the width's CPU features are
+        // enabled (a detected token chose this code) and the tree was checked by
+        // `Tree::new`, so every node reference read from it is in range.
+        unsafe {
+            let t_max = p.rays.t_max();
+            let (tree, test, cpu) = (&bvh.triangles, bvh.box_test, bvh.cpu);
+            let mut alone = |_: &mut BlockPacket<W>, i: usize, start, t: f32, work: &mut Work| {
+                let mut one = BlockLeaves {
+                    blocks,
+                    ray: &rays[i],
+                    best: None,
+                };
+                let box_ray = box_ray_of(&rays[i]);
+                traverse::any(tree, &box_ray, t, &mut one, cpu, test, work, start)
             };
-            let box_ray = box_ray_of(&rays[i]);
-            traverse::any(tree, &box_ray, t, &mut one, cpu, test, work, start)
-        };
-        let mut leaves = BlockPacket::new(blocks, p.rays);
-        // The rays that miss the root box meet no triangle, as alone.
-        let rooted = Packet {
-            rays: p.rays,
-            mask: p.mask & p.rays.enters(tree.bounds(), W::load(&t_max)),
-        };
-        let l = &mut leaves;
-        let blocked = if rooted.mask == 0 {
-            0
-        } else if test == BoxTest::Fast && rooted.fast_test_fits() {
-            packet::any::<W, false, _>(tree, &rooted, &t_max, l, &mut alone, work, SINGLE_BELOW)
-        } else {
-            packet::any::<W, true, _>(tree, &rooted, &t_max, l, &mut alone, work, SINGLE_BELOW)
-        };
-        for i in lanes_of(p.mask) {
-            out[i] = blocked & (1 << i) != 0
-                || (!bvh.sphere_items.is_empty()
-                    && bvh.any_sphere(&rays[i], &box_ray_of(&rays[i]), work));
+            let mut leaves = BlockPacket::new(blocks, p.rays);
+            // The rays that miss the root box meet no triangle, as alone.
+            let rooted = Packet {
+                rays: p.rays,
+                mask: p.mask & p.rays.enters(tree.bounds(), W::load(&t_max)),
+            };
+            let l = &mut leaves;
+            let blocked = if rooted.mask == 0 {
+                0
+            } else if test == BoxTest::Fast && rooted.fast_test_fits() {
+                packet::any::<W, false, _>(tree, &rooted, &t_max, l, &mut alone, work, SINGLE_BELOW)
+            } else {
+                packet::any::<W, true, _>(tree, &rooted, &t_max, l, &mut alone, work, SINGLE_BELOW)
+            };
+            for i in lanes_of(p.mask) {
+                out[i] = blocked & (1 << i) != 0
+                    || (!bvh.sphere_items.is_empty()
+                        && bvh.any_sphere(&rays[i], &box_ray_of(&rays[i]), work));
+            }
         }
     }
 }
@@ -338,30 +349,35 @@ impl NativeBvh {
         out: &mut [Q::Answer],
         counters: &mut TraceCounters,
     ) {
-        let prepared = PacketRays::<W>::load(rays);
-        let mut rest = prepared.traceable;
-        let lanes = (1u32 << out.len()) - 1;
-        for i in lanes_of(lanes & !rest) {
-            out[i] = Q::MISS;
-        }
-        let mut work = Work::default();
-        while rest != 0 {
-            let group = prepared.same_octant(rest);
-            rest &= !group;
-            if group.count_ones() >= min_packet(W::N) {
-                let p = Packet {
-                    rays: &prepared,
-                    mask: group,
-                };
-                Q::packet::<W>(self, blocks, rays, &p, out, &mut work);
-            } else {
-                for i in lanes_of(group) {
-                    out[i] = Q::alone(self, &rays[i], counters);
+        // SAFETY: the caller upholds this kernel's contract: the width's CPU features are
+        // enabled (a detected token chose this code) and the tree was checked by
+        // `Tree::new`, so every node reference read from it is in range.
+        unsafe {
+            let prepared = PacketRays::<W>::load(rays);
+            let mut rest = prepared.traceable;
+            let lanes = (1u32 << out.len()) - 1;
+            for i in lanes_of(lanes & !rest) {
+                out[i] = Q::MISS;
+            }
+            let mut work = Work::default();
+            while rest != 0 {
+                let group = prepared.same_octant(rest);
+                rest &= !group;
+                if group.count_ones() >= min_packet(W::N) {
+                    let p = Packet {
+                        rays: &prepared,
+                        mask: group,
+                    };
+                    Q::packet::<W>(self, blocks, rays, &p, out, &mut work);
+                } else {
+                    for i in lanes_of(group) {
+                        out[i] = Q::alone(self, &rays[i], counters);
+                    }
                 }
             }
+            counters.box_tests += work.nodes * node::WIDTH as u64;
+            counters.prim_tests += work.items;
         }
-        counters.box_tests += work.nodes * node::WIDTH as u64;
-        counters.prim_tests += work.items;
     }
 
     /// [`Self::group`] with eight rays in AVX2 lanes.
@@ -378,7 +394,10 @@ impl NativeBvh {
         out: &mut [Q::Answer],
         counters: &mut TraceCounters,
     ) {
-        self.group::<X8, Q>(blocks, rays, out, counters)
+        // SAFETY: the caller upholds this kernel's contract: the width's CPU features are
+        // enabled (a detected token chose this code) and the tree was checked by
+        // `Tree::new`, so every node reference read from it is in range.
+        unsafe { self.group::<X8, Q>(blocks, rays, out, counters) }
     }
 
     /// [`Self::group`] with sixteen rays in AVX-512 lanes.
@@ -395,7 +414,10 @@ impl NativeBvh {
         out: &mut [Q::Answer],
         counters: &mut TraceCounters,
     ) {
-        self.group::<X16, Q>(blocks, rays, out, counters)
+        // SAFETY: the caller upholds this kernel's contract: the width's CPU features are
+        // enabled (a detected token chose this code) and the tree was checked by
+        // `Tree::new`, so every node reference read from it is in range.
+        unsafe { self.group::<X16, Q>(blocks, rays, out, counters) }
     }
 
     /// A batch query through the packet kernels this tree may run; `None`

@@ -174,58 +174,63 @@ unsafe fn lanes_hit<W: Width, const BEHIND: bool>(
     t_max: W::V,
     live: u32,
 ) -> (u32, W::V, W::V, W::V) {
-    let at = |k: usize, axis: usize| W::splat(block.corner(k, axis, i));
-    let (v0x, v0y, v0z) = (at(0, 0), at(0, 1), at(0, 2));
-    let (e1x, e1y, e1z) = (at(1, 0), at(1, 1), at(1, 2));
-    let (e2x, e2y, e2z) = (at(2, 0), at(2, 1), at(2, 2));
-    let [dx, dy, dz] = r.dir;
-    let (mul, sub, add) = (
-        |a, b| W::mul(a, b),
-        |a, b| W::sub(a, b),
-        |a, b| W::add(a, b),
-    );
-    let px = sub(mul(dy, e2z), mul(e2y, dz));
-    let py = sub(mul(dz, e2x), mul(e2z, dx));
-    let pz = sub(mul(dx, e2y), mul(e2x, dy));
-    let det = add(add(mul(e1x, px), mul(e1y, py)), mul(e1z, pz));
-    let abs = W::abs(det);
-    // The determinant's sign bit alone.
-    let sign = W::xor(det, abs);
-    let sx = sub(r.origin[0], v0x);
-    let sy = sub(r.origin[1], v0y);
-    let sz = sub(r.origin[2], v0z);
-    let qx = sub(mul(sy, e1z), mul(e1y, sz));
-    let qy = sub(mul(sz, e1x), mul(e1z, sx));
-    let qz = sub(mul(sx, e1y), mul(e1x, sy));
-    let u_det = add(add(mul(sx, px), mul(sy, py)), mul(sz, pz));
-    let v_det = add(add(mul(dx, qx), mul(dy, qy)), mul(dz, qz));
-    let t_det = add(add(mul(e2x, qx), mul(e2y, qy)), mul(e2z, qz));
-    let (u_abs, v_abs) = (W::xor(u_det, sign), W::xor(v_det, sign));
-    let low = mul(abs, W::splat(-PREFILTER_LOW));
-    let inside = live
-        & W::ge(abs, W::splat(PARALLEL_DETERMINANT))
-        & W::ge(u_abs, low)
-        & W::ge(v_abs, low)
-        & W::le(add(u_abs, v_abs), mul(abs, W::splat(PREFILTER_HIGH)))
-        & if BEHIND {
-            W::gt(W::xor(t_det, sign), r.behind)
-        } else {
-            u32::MAX
-        };
-    let zero = W::splat(0.0);
-    if inside == 0 {
-        return (0, zero, zero, zero);
+    // SAFETY: the caller upholds this kernel's contract: the width's CPU features are
+    // enabled (a detected token chose this code) and the tree was checked by `Tree::new`,
+    // so every node reference read from it is in range.
+    unsafe {
+        let at = |k: usize, axis: usize| W::splat(block.corner(k, axis, i));
+        let (v0x, v0y, v0z) = (at(0, 0), at(0, 1), at(0, 2));
+        let (e1x, e1y, e1z) = (at(1, 0), at(1, 1), at(1, 2));
+        let (e2x, e2y, e2z) = (at(2, 0), at(2, 1), at(2, 2));
+        let [dx, dy, dz] = r.dir;
+        let (mul, sub, add) = (
+            |a, b| W::mul(a, b),
+            |a, b| W::sub(a, b),
+            |a, b| W::add(a, b),
+        );
+        let px = sub(mul(dy, e2z), mul(e2y, dz));
+        let py = sub(mul(dz, e2x), mul(e2z, dx));
+        let pz = sub(mul(dx, e2y), mul(e2x, dy));
+        let det = add(add(mul(e1x, px), mul(e1y, py)), mul(e1z, pz));
+        let abs = W::abs(det);
+        // The determinant's sign bit alone.
+        let sign = W::xor(det, abs);
+        let sx = sub(r.origin[0], v0x);
+        let sy = sub(r.origin[1], v0y);
+        let sz = sub(r.origin[2], v0z);
+        let qx = sub(mul(sy, e1z), mul(e1y, sz));
+        let qy = sub(mul(sz, e1x), mul(e1z, sx));
+        let qz = sub(mul(sx, e1y), mul(e1x, sy));
+        let u_det = add(add(mul(sx, px), mul(sy, py)), mul(sz, pz));
+        let v_det = add(add(mul(dx, qx), mul(dy, qy)), mul(dz, qz));
+        let t_det = add(add(mul(e2x, qx), mul(e2y, qy)), mul(e2z, qz));
+        let (u_abs, v_abs) = (W::xor(u_det, sign), W::xor(v_det, sign));
+        let low = mul(abs, W::splat(-PREFILTER_LOW));
+        let inside = live
+            & W::ge(abs, W::splat(PARALLEL_DETERMINANT))
+            & W::ge(u_abs, low)
+            & W::ge(v_abs, low)
+            & W::le(add(u_abs, v_abs), mul(abs, W::splat(PREFILTER_HIGH)))
+            & if BEHIND {
+                W::gt(W::xor(t_det, sign), r.behind)
+            } else {
+                u32::MAX
+            };
+        let zero = W::splat(0.0);
+        if inside == 0 {
+            return (0, zero, zero, zero);
+        }
+        let inv = W::div(W::splat(1.0), det);
+        let (u, v) = (mul(u_det, inv), mul(v_det, inv));
+        let t = mul(t_det, inv);
+        let valid = inside
+            & W::ge(u, W::splat(-EDGE_SLACK))
+            & W::ge(v, W::splat(-EDGE_SLACK))
+            & W::le(add(u, v), W::splat(1.0 + EDGE_SLACK))
+            & W::gt(t, r.t_min)
+            & W::le(t, t_max);
+        (valid, t, u, v)
     }
-    let inv = W::div(W::splat(1.0), det);
-    let (u, v) = (mul(u_det, inv), mul(v_det, inv));
-    let t = mul(t_det, inv);
-    let valid = inside
-        & W::ge(u, W::splat(-EDGE_SLACK))
-        & W::ge(v, W::splat(-EDGE_SLACK))
-        & W::le(add(u, v), W::splat(1.0 + EDGE_SLACK))
-        & W::gt(t, r.t_min)
-        & W::le(t, t_max);
-    (valid, t, u, v)
 }
 
 /// Möller–Trumbore blocks for a packet: each triangle against all its rays
@@ -288,69 +293,80 @@ impl<W: Width> PacketLeaves<W> for BlockPacket<'_, W> {
         mask: u32,
         t_max: &mut [f32; MAX_LANES],
     ) -> u32 {
-        let mut t_lanes = W::load(t_max);
-        let (mut best, mut u_lanes, mut v_lanes) =
-            (W::load(&self.best), W::load(&self.u), W::load(&self.v));
-        let mut found = 0;
-        for b in first..first + count {
-            let block = &self.blocks[b as usize];
-            // Triangle by triangle, each taking the rays whose nearest it
-            // is so far (`t <= t_max`, and at exactly `t_max` only from a
-            // higher slot): what the single-ray block test and leaf loop
-            // choose.
-            for i in 0..4 {
-                if block.prim(i) == u32::MAX {
-                    break;
-                }
-                let (mut hits, t, u, v) = lanes_hit::<W, false>(block, i, self.rays, t_lanes, mask);
-                if hits == 0 {
-                    continue;
-                }
-                let ties = hits & W::ge(t, t_lanes);
-                if ties != 0 {
-                    let mut held = [0.0f32; MAX_LANES];
-                    W::store(&mut held, best);
-                    let id = 4 * b + i as u32;
-                    for (lane, held) in held.iter().enumerate().take(W::N) {
-                        if ties >> lane & 1 != 0 && id >= held.to_bits() {
-                            hits &= !(1 << lane);
-                        }
+        // SAFETY: the caller upholds this kernel's contract: the width's CPU features are
+        // enabled (a detected token chose this code) and the tree was checked by
+        // `Tree::new`, so every node reference read from it is in range.
+        unsafe {
+            let mut t_lanes = W::load(t_max);
+            let (mut best, mut u_lanes, mut v_lanes) =
+                (W::load(&self.best), W::load(&self.u), W::load(&self.v));
+            let mut found = 0;
+            for b in first..first + count {
+                let block = &self.blocks[b as usize];
+                // Triangle by triangle, each taking the rays whose nearest it
+                // is so far (`t <= t_max`, and at exactly `t_max` only from a
+                // higher slot): what the single-ray block test and leaf loop
+                // choose.
+                for i in 0..4 {
+                    if block.prim(i) == u32::MAX {
+                        break;
                     }
+                    let (mut hits, t, u, v) =
+                        lanes_hit::<W, false>(block, i, self.rays, t_lanes, mask);
                     if hits == 0 {
                         continue;
                     }
+                    let ties = hits & W::ge(t, t_lanes);
+                    if ties != 0 {
+                        let mut held = [0.0f32; MAX_LANES];
+                        W::store(&mut held, best);
+                        let id = 4 * b + i as u32;
+                        for (lane, held) in held.iter().enumerate().take(W::N) {
+                            if ties >> lane & 1 != 0 && id >= held.to_bits() {
+                                hits &= !(1 << lane);
+                            }
+                        }
+                        if hits == 0 {
+                            continue;
+                        }
+                    }
+                    found |= hits;
+                    t_lanes = W::select(hits, t_lanes, t);
+                    u_lanes = W::select(hits, u_lanes, u);
+                    v_lanes = W::select(hits, v_lanes, v);
+                    best = W::select(hits, best, W::splat(f32::from_bits(4 * b + i as u32)));
                 }
-                found |= hits;
-                t_lanes = W::select(hits, t_lanes, t);
-                u_lanes = W::select(hits, u_lanes, u);
-                v_lanes = W::select(hits, v_lanes, v);
-                best = W::select(hits, best, W::splat(f32::from_bits(4 * b + i as u32)));
             }
+            W::store(&mut self.best, best);
+            W::store(&mut self.u, u_lanes);
+            W::store(&mut self.v, v_lanes);
+            W::store(t_max, t_lanes);
+            found
         }
-        W::store(&mut self.best, best);
-        W::store(&mut self.u, u_lanes);
-        W::store(&mut self.v, v_lanes);
-        W::store(t_max, t_lanes);
-        found
     }
 
     #[inline(always)]
     unsafe fn any(&mut self, first: u32, count: u32, mask: u32, t_max: &[f32; MAX_LANES]) -> u32 {
-        let t_lanes = W::load(t_max);
-        let mut live = mask;
-        for b in first..first + count {
-            let block = &self.blocks[b as usize];
-            for i in 0..4 {
-                if block.prim(i) == u32::MAX {
-                    break;
-                }
-                let (hits, ..) = lanes_hit::<W, true>(block, i, self.rays, t_lanes, live);
-                live &= !hits;
-                if live == 0 {
-                    return mask;
+        // SAFETY: the caller upholds this kernel's contract: the width's CPU features are
+        // enabled (a detected token chose this code) and the tree was checked by
+        // `Tree::new`, so every node reference read from it is in range.
+        unsafe {
+            let t_lanes = W::load(t_max);
+            let mut live = mask;
+            for b in first..first + count {
+                let block = &self.blocks[b as usize];
+                for i in 0..4 {
+                    if block.prim(i) == u32::MAX {
+                        break;
+                    }
+                    let (hits, ..) = lanes_hit::<W, true>(block, i, self.rays, t_lanes, live);
+                    live &= !hits;
+                    if live == 0 {
+                        return mask;
+                    }
                 }
             }
+            mask & !live
         }
-        mask & !live
     }
 }

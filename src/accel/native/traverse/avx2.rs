@@ -50,35 +50,40 @@ fn lanes<const ROBUST: bool>(ray: &BoxRay) -> Lanes {
 #[target_feature(enable = "avx2,fma,popcnt,lzcnt,bmi1,bmi2")]
 #[inline]
 unsafe fn slab<const ROBUST: bool>(node: &Node8, l: &Lanes, t_max: __m256) -> (__m256, __m256) {
-    let plane = |row: usize| _mm256_load_ps(node.planes[row].as_ptr());
-    let near_t = |axis: usize| {
-        let p = plane(l.rows[axis].0);
-        if ROBUST {
-            _mm256_mul_ps(_mm256_sub_ps(p, l.near_c[axis]), l.near_r[axis])
+    // SAFETY: the caller holds the `Avx2` token (or runs inside a function that took it),
+    // so AVX2 is enabled; node references come from a tree checked by `Tree::new`, and
+    // stack pushes stay below `MAX_DEPTH` entries per level, the stack's length.
+    unsafe {
+        let plane = |row: usize| _mm256_load_ps(node.planes[row].as_ptr());
+        let near_t = |axis: usize| {
+            let p = plane(l.rows[axis].0);
+            if ROBUST {
+                _mm256_mul_ps(_mm256_sub_ps(p, l.near_c[axis]), l.near_r[axis])
+            } else {
+                _mm256_fmsub_ps(p, l.near_r[axis], l.near_c[axis])
+            }
+        };
+        let far_t = |axis: usize| {
+            let p = plane(l.rows[axis].1);
+            if ROBUST {
+                _mm256_mul_ps(_mm256_sub_ps(p, l.far_c[axis]), l.far_r[axis])
+            } else {
+                _mm256_fmsub_ps(p, l.far_r[axis], l.far_c[axis])
+            }
+        };
+        let near = _mm256_max_ps(
+            _mm256_max_ps(near_t(0), near_t(1)),
+            _mm256_max_ps(near_t(2), l.t_min),
+        );
+        let far = _mm256_min_ps(_mm256_min_ps(far_t(0), far_t(1)), far_t(2));
+        let far = if ROBUST {
+            _mm256_mul_ps(far, _mm256_set1_ps(BOX_FAR_SCALE))
         } else {
-            _mm256_fmsub_ps(p, l.near_r[axis], l.near_c[axis])
-        }
-    };
-    let far_t = |axis: usize| {
-        let p = plane(l.rows[axis].1);
-        if ROBUST {
-            _mm256_mul_ps(_mm256_sub_ps(p, l.far_c[axis]), l.far_r[axis])
-        } else {
-            _mm256_fmsub_ps(p, l.far_r[axis], l.far_c[axis])
-        }
-    };
-    let near = _mm256_max_ps(
-        _mm256_max_ps(near_t(0), near_t(1)),
-        _mm256_max_ps(near_t(2), l.t_min),
-    );
-    let far = _mm256_min_ps(_mm256_min_ps(far_t(0), far_t(1)), far_t(2));
-    let far = if ROBUST {
-        _mm256_mul_ps(far, _mm256_set1_ps(BOX_FAR_SCALE))
-    } else {
-        far
-    };
-    let far = _mm256_min_ps(far, t_max);
-    (near, _mm256_cmp_ps::<_CMP_LE_OQ>(near, far))
+            far
+        };
+        let far = _mm256_min_ps(far, t_max);
+        (near, _mm256_cmp_ps::<_CMP_LE_OQ>(near, far))
+    }
 }
 
 /// Asks for the four cache lines of `r`'s node or first leaf item
@@ -110,24 +115,29 @@ unsafe fn push(
     dists: *mut f32,
     top: &mut usize,
 ) -> ChildRef {
-    let order = _mm256_srl_epi32(_mm256_load_si256(node.order.as_ptr().cast()), l.shift);
-    let sorted = _mm256_movemask_ps(_mm256_permutevar8x32_ps(hit, order)) as usize;
-    let children =
-        _mm256_permutevar8x32_epi32(_mm256_load_si256(node.child.as_ptr().cast()), order);
-    let nearest = 31 - (sorted as u32).leading_zeros();
-    let pack = _mm256_loadu_si256(COMPRESS[sorted].as_ptr().cast());
-    _mm256_storeu_si256(
-        refs.add(*top).cast(),
-        _mm256_permutevar8x32_epi32(children, pack),
-    );
-    let d = _mm256_permutevar8x32_ps(near, order);
-    _mm256_storeu_ps(dists.add(*top), _mm256_permutevar8x32_ps(d, pack));
-    *top += sorted.count_ones() as usize - 1;
-    // The nearest from the permuted references (one shuffle), not from
-    // `order` and `child` (two dependent loads on the way to the next
-    // node).
-    let pick = _mm256_permutevar8x32_epi32(children, _mm256_set1_epi32(nearest as i32));
-    _mm256_cvtsi256_si32(pick) as ChildRef
+    // SAFETY: the caller holds the `Avx2` token (or runs inside a function that took it),
+    // so AVX2 is enabled; node references come from a tree checked by `Tree::new`, and
+    // stack pushes stay below `MAX_DEPTH` entries per level, the stack's length.
+    unsafe {
+        let order = _mm256_srl_epi32(_mm256_load_si256(node.order.as_ptr().cast()), l.shift);
+        let sorted = _mm256_movemask_ps(_mm256_permutevar8x32_ps(hit, order)) as usize;
+        let children =
+            _mm256_permutevar8x32_epi32(_mm256_load_si256(node.child.as_ptr().cast()), order);
+        let nearest = 31 - (sorted as u32).leading_zeros();
+        let pack = _mm256_loadu_si256(COMPRESS[sorted].as_ptr().cast());
+        _mm256_storeu_si256(
+            refs.add(*top).cast(),
+            _mm256_permutevar8x32_epi32(children, pack),
+        );
+        let d = _mm256_permutevar8x32_ps(near, order);
+        _mm256_storeu_ps(dists.add(*top), _mm256_permutevar8x32_ps(d, pack));
+        *top += sorted.count_ones() as usize - 1;
+        // The nearest from the permuted references (one shuffle), not from
+        // `order` and `child` (two dependent loads on the way to the next
+        // node).
+        let pick = _mm256_permutevar8x32_epi32(children, _mm256_set1_epi32(nearest as i32));
+        _mm256_cvtsi256_si32(pick) as ChildRef
+    }
 }
 
 /// Any-hit's push: no order to compute, the hit children in slot
@@ -136,14 +146,19 @@ unsafe fn push(
 #[target_feature(enable = "avx2,fma,popcnt,lzcnt,bmi1,bmi2")]
 #[inline]
 unsafe fn push_any(node: &Node8, mask: u32, refs: *mut ChildRef, top: &mut usize) -> ChildRef {
-    let pack = _mm256_loadu_si256(COMPRESS[mask as usize].as_ptr().cast());
-    let children = _mm256_load_si256(node.child.as_ptr().cast());
-    _mm256_storeu_si256(
-        refs.add(*top).cast(),
-        _mm256_permutevar8x32_epi32(children, pack),
-    );
-    *top += mask.count_ones() as usize - 1;
-    node.child[31 - mask.leading_zeros() as usize]
+    // SAFETY: the caller holds the `Avx2` token (or runs inside a function that took it),
+    // so AVX2 is enabled; node references come from a tree checked by `Tree::new`, and
+    // stack pushes stay below `MAX_DEPTH` entries per level, the stack's length.
+    unsafe {
+        let pack = _mm256_loadu_si256(COMPRESS[mask as usize].as_ptr().cast());
+        let children = _mm256_load_si256(node.child.as_ptr().cast());
+        _mm256_storeu_si256(
+            refs.add(*top).cast(),
+            _mm256_permutevar8x32_epi32(children, pack),
+        );
+        *top += mask.count_ones() as usize - 1;
+        node.child[31 - mask.leading_zeros() as usize]
+    }
 }
 
 /// From `start`: the root, or (packet traversal handing one ray over) a
@@ -164,59 +179,64 @@ pub unsafe fn closest<const ROBUST: bool, L: Leaves>(
     work: &mut Work,
     start: ChildRef,
 ) -> bool {
-    let l = lanes::<ROBUST>(ray);
-    let mut refs = AlignedStack::<ChildRef>::new();
-    let mut dists = AlignedStack::<f32>::new();
-    let (refs, dists) = (refs.as_mut_ptr(), dists.as_mut_ptr());
-    let mut top = 0usize;
-    let mut far = _mm256_set1_ps(*t_max);
-    let mut current = start;
-    let mut hit = false;
-    loop {
-        if !is_leaf(current) {
-            // SAFETY: `current` is the root of a non-empty tree or an
-            // inner reference read from one of its nodes.
-            let node = tree.node_unchecked(current);
-            // The child line is read only once the hit mask is known;
-            // asked for now, its miss overlaps the plane lines' misses.
-            _mm_prefetch::<_MM_HINT_T0>(node.child.as_ptr().cast());
-            work.nodes += 1;
-            let (near, hits) = slab::<ROBUST>(node, &l, far);
-            let mask = _mm256_movemask_ps(hits) as u32;
-            if mask != 0 {
-                current = if mask & (mask - 1) == 0 {
-                    node.child[mask.trailing_zeros() as usize]
-                } else {
-                    // SAFETY: `top` stays below STACK - WIDTH: every
-                    // level leaves at most seven entries and the depth
-                    // is bounded by MAX_DEPTH.
-                    push(node, &l, near, hits, refs, dists, &mut top)
-                };
-                continue;
-            }
-        } else {
-            if top > 0 {
-                // The next entry is fetched while the leaf is tested.
-                // SAFETY: entries below `top` were written by `push`.
-                prefetch(tree, leaves, *refs.add(top - 1));
-            }
-            let count = leaf_count(current);
-            work.items += count as u64;
-            if let Some(t) = leaves.nearest(leaf_first(current), count, *t_max) {
-                *t_max = t;
-                far = _mm256_set1_ps(t);
-                hit = true;
-            }
-        }
+    // SAFETY: the caller holds the `Avx2` token (or runs inside a function that took it),
+    // so AVX2 is enabled; node references come from a tree checked by `Tree::new`, and
+    // stack pushes stay below `MAX_DEPTH` entries per level, the stack's length.
+    unsafe {
+        let l = lanes::<ROBUST>(ray);
+        let mut refs = AlignedStack::<ChildRef>::new();
+        let mut dists = AlignedStack::<f32>::new();
+        let (refs, dists) = (refs.as_mut_ptr(), dists.as_mut_ptr());
+        let mut top = 0usize;
+        let mut far = _mm256_set1_ps(*t_max);
+        let mut current = start;
+        let mut hit = false;
         loop {
-            if top == 0 {
-                return hit;
+            if !is_leaf(current) {
+                // SAFETY: `current` is the root of a non-empty tree or an
+                // inner reference read from one of its nodes.
+                let node = tree.node_unchecked(current);
+                // The child line is read only once the hit mask is known;
+                // asked for now, its miss overlaps the plane lines' misses.
+                _mm_prefetch::<_MM_HINT_T0>(node.child.as_ptr().cast());
+                work.nodes += 1;
+                let (near, hits) = slab::<ROBUST>(node, &l, far);
+                let mask = _mm256_movemask_ps(hits) as u32;
+                if mask != 0 {
+                    current = if mask & (mask - 1) == 0 {
+                        node.child[mask.trailing_zeros() as usize]
+                    } else {
+                        // SAFETY: `top` stays below STACK - WIDTH: every
+                        // level leaves at most seven entries and the depth
+                        // is bounded by MAX_DEPTH.
+                        push(node, &l, near, hits, refs, dists, &mut top)
+                    };
+                    continue;
+                }
+            } else {
+                if top > 0 {
+                    // The next entry is fetched while the leaf is tested.
+                    // SAFETY: entries below `top` were written by `push`.
+                    prefetch(tree, leaves, *refs.add(top - 1));
+                }
+                let count = leaf_count(current);
+                work.items += count as u64;
+                if let Some(t) = leaves.nearest(leaf_first(current), count, *t_max) {
+                    *t_max = t;
+                    far = _mm256_set1_ps(t);
+                    hit = true;
+                }
             }
-            top -= 1;
-            // SAFETY: entries below `top` were written by `push`.
-            if *dists.add(top) <= *t_max {
-                current = *refs.add(top);
-                break;
+            loop {
+                if top == 0 {
+                    return hit;
+                }
+                top -= 1;
+                // SAFETY: entries below `top` were written by `push`.
+                if *dists.add(top) <= *t_max {
+                    current = *refs.add(top);
+                    break;
+                }
             }
         }
     }
@@ -234,47 +254,52 @@ pub unsafe fn any<const ROBUST: bool, L: Leaves>(
     work: &mut Work,
     start: ChildRef,
 ) -> bool {
-    let l = lanes::<ROBUST>(ray);
-    let mut refs = AlignedStack::<ChildRef>::new();
-    let refs = refs.as_mut_ptr();
-    let mut top = 0usize;
-    let far = _mm256_set1_ps(t_max);
-    let mut current = start;
-    loop {
-        if !is_leaf(current) {
-            // SAFETY: as in `closest`.
-            let node = tree.node_unchecked(current);
-            // As in `closest`: the child line's miss overlaps the planes'.
-            _mm_prefetch::<_MM_HINT_T0>(node.child.as_ptr().cast());
-            work.nodes += 1;
-            let (_, hits) = slab::<ROBUST>(node, &l, far);
-            let mask = _mm256_movemask_ps(hits) as u32;
-            if mask != 0 {
-                current = if mask & (mask - 1) == 0 {
-                    node.child[mask.trailing_zeros() as usize]
-                } else {
-                    push_any(node, mask, refs, &mut top)
-                };
-                continue;
+    // SAFETY: the caller holds the `Avx2` token (or runs inside a function that took it),
+    // so AVX2 is enabled; node references come from a tree checked by `Tree::new`, and
+    // stack pushes stay below `MAX_DEPTH` entries per level, the stack's length.
+    unsafe {
+        let l = lanes::<ROBUST>(ray);
+        let mut refs = AlignedStack::<ChildRef>::new();
+        let refs = refs.as_mut_ptr();
+        let mut top = 0usize;
+        let far = _mm256_set1_ps(t_max);
+        let mut current = start;
+        loop {
+            if !is_leaf(current) {
+                // SAFETY: as in `closest`.
+                let node = tree.node_unchecked(current);
+                // As in `closest`: the child line's miss overlaps the planes'.
+                _mm_prefetch::<_MM_HINT_T0>(node.child.as_ptr().cast());
+                work.nodes += 1;
+                let (_, hits) = slab::<ROBUST>(node, &l, far);
+                let mask = _mm256_movemask_ps(hits) as u32;
+                if mask != 0 {
+                    current = if mask & (mask - 1) == 0 {
+                        node.child[mask.trailing_zeros() as usize]
+                    } else {
+                        push_any(node, mask, refs, &mut top)
+                    };
+                    continue;
+                }
+            } else {
+                if top > 0 {
+                    // The next entry is fetched while the leaf is tested.
+                    // SAFETY: entries below `top` were written by `push`.
+                    prefetch(tree, leaves, *refs.add(top - 1));
+                }
+                let count = leaf_count(current);
+                work.items += count as u64;
+                if leaves.any(leaf_first(current), count, t_max) {
+                    return true;
+                }
             }
-        } else {
-            if top > 0 {
-                // The next entry is fetched while the leaf is tested.
-                // SAFETY: entries below `top` were written by `push`.
-                prefetch(tree, leaves, *refs.add(top - 1));
+            if top == 0 {
+                return false;
             }
-            let count = leaf_count(current);
-            work.items += count as u64;
-            if leaves.any(leaf_first(current), count, t_max) {
-                return true;
-            }
+            top -= 1;
+            // SAFETY: entries below `top` were written by `push`.
+            current = *refs.add(top);
         }
-        if top == 0 {
-            return false;
-        }
-        top -= 1;
-        // SAFETY: entries below `top` were written by `push`.
-        current = *refs.add(top);
     }
 }
 
@@ -311,77 +336,83 @@ pub unsafe fn any_stream<const ROBUST: bool, L: Leaves>(
     leaves: &mut impl FnMut(usize) -> L,
     work: &mut Work,
 ) -> u64 {
-    let mut stack = AlignedStack::<(ChildRef, u64)>::new();
-    let stack = stack.as_mut_ptr();
-    let mut top = 0usize;
-    let mut blocked = 0u64;
-    let (mut current, mut mask) = (0 as ChildRef, active);
-    loop {
-        mask &= !blocked;
-        if mask != 0 && mask.count_ones() <= STREAM_ALONE && !is_leaf(current) {
-            // Too few rays left to share nodes: each walks on alone.
-            let mut rest = mask;
-            while rest != 0 {
-                let i = rest.trailing_zeros() as usize;
-                rest &= rest - 1;
-                let (ray, t) = (rays.get_unchecked(i), *t_max.get_unchecked(i));
-                if any::<ROBUST, L>(cpu, tree, ray, t, &mut leaves(i), work, current) {
-                    blocked |= 1 << i;
-                }
-            }
-        } else if mask != 0 {
-            if !is_leaf(current) {
-                // SAFETY: as in `closest`.
-                let node = tree.node_unchecked(current);
-                work.nodes += u64::from(mask.count_ones());
-                // Per child the rays entering it, children 0-3 and 4-7.
-                let (mut low, mut high) = (_mm256_setzero_si256(), _mm256_setzero_si256());
+    // SAFETY: the caller holds the `Avx2` token (or runs inside a function that took it),
+    // so AVX2 is enabled; node references come from a tree checked by `Tree::new`, and
+    // stack pushes stay below `MAX_DEPTH` entries per level, the stack's length.
+    unsafe {
+        let mut stack = AlignedStack::<(ChildRef, u64)>::new();
+        let stack = stack.as_mut_ptr();
+        let mut top = 0usize;
+        let mut blocked = 0u64;
+        let (mut current, mut mask) = (0 as ChildRef, active);
+        loop {
+            mask &= !blocked;
+            if mask != 0 && mask.count_ones() <= STREAM_ALONE && !is_leaf(current) {
+                // Too few rays left to share nodes: each walks on alone.
                 let mut rest = mask;
                 while rest != 0 {
                     let i = rest.trailing_zeros() as usize;
                     rest &= rest - 1;
-                    // SAFETY: the caller's slices cover every ray in `active`.
-                    let ray = rays.get_unchecked(i);
-                    let far = _mm256_set1_ps(*t_max.get_unchecked(i));
-                    let (_, hits) = slab::<ROBUST>(node, &lanes::<ROBUST>(ray), far);
-                    let hits = _mm256_castps_si256(hits);
-                    let bit = _mm256_set1_epi64x((1u64 << i) as i64);
-                    let wide = |half: __m128i| _mm256_and_si256(_mm256_cvtepi32_epi64(half), bit);
-                    low = _mm256_or_si256(low, wide(_mm256_castsi256_si128(hits)));
-                    high = _mm256_or_si256(high, wide(_mm256_extracti128_si256::<1>(hits)));
-                }
-                let mut entering = [0u64; WIDTH];
-                _mm256_storeu_si256(entering.as_mut_ptr().cast(), low);
-                _mm256_storeu_si256(entering.as_mut_ptr().add(4).cast(), high);
-                // Every entered child pushed, the first slot (the
-                // largest) deepest, so the smallest is walked first, as
-                // single-ray any hit does.
-                for (c, &rays_in) in entering.iter().enumerate() {
-                    if rays_in != 0 {
-                        // SAFETY: every level leaves at most seven entries
-                        // and the depth is bounded by MAX_DEPTH.
-                        stack.add(top).write((node.child[c], rays_in));
-                        top += 1;
-                    }
-                }
-            } else {
-                let (first, count) = (leaf_first(current), leaf_count(current));
-                let mut rest = mask;
-                while rest != 0 {
-                    let i = rest.trailing_zeros() as usize;
-                    rest &= rest - 1;
-                    work.items += u64::from(count);
-                    if leaves(i).any(first, count, *t_max.get_unchecked(i)) {
+                    let (ray, t) = (rays.get_unchecked(i), *t_max.get_unchecked(i));
+                    if any::<ROBUST, L>(cpu, tree, ray, t, &mut leaves(i), work, current) {
                         blocked |= 1 << i;
                     }
                 }
+            } else if mask != 0 {
+                if !is_leaf(current) {
+                    // SAFETY: as in `closest`.
+                    let node = tree.node_unchecked(current);
+                    work.nodes += u64::from(mask.count_ones());
+                    // Per child the rays entering it, children 0-3 and 4-7.
+                    let (mut low, mut high) = (_mm256_setzero_si256(), _mm256_setzero_si256());
+                    let mut rest = mask;
+                    while rest != 0 {
+                        let i = rest.trailing_zeros() as usize;
+                        rest &= rest - 1;
+                        // SAFETY: the caller's slices cover every ray in `active`.
+                        let ray = rays.get_unchecked(i);
+                        let far = _mm256_set1_ps(*t_max.get_unchecked(i));
+                        let (_, hits) = slab::<ROBUST>(node, &lanes::<ROBUST>(ray), far);
+                        let hits = _mm256_castps_si256(hits);
+                        let bit = _mm256_set1_epi64x((1u64 << i) as i64);
+                        let wide =
+                            |half: __m128i| _mm256_and_si256(_mm256_cvtepi32_epi64(half), bit);
+                        low = _mm256_or_si256(low, wide(_mm256_castsi256_si128(hits)));
+                        high = _mm256_or_si256(high, wide(_mm256_extracti128_si256::<1>(hits)));
+                    }
+                    let mut entering = [0u64; WIDTH];
+                    _mm256_storeu_si256(entering.as_mut_ptr().cast(), low);
+                    _mm256_storeu_si256(entering.as_mut_ptr().add(4).cast(), high);
+                    // Every entered child pushed, the first slot (the
+                    // largest) deepest, so the smallest is walked first, as
+                    // single-ray any hit does.
+                    for (c, &rays_in) in entering.iter().enumerate() {
+                        if rays_in != 0 {
+                            // SAFETY: every level leaves at most seven entries
+                            // and the depth is bounded by MAX_DEPTH.
+                            stack.add(top).write((node.child[c], rays_in));
+                            top += 1;
+                        }
+                    }
+                } else {
+                    let (first, count) = (leaf_first(current), leaf_count(current));
+                    let mut rest = mask;
+                    while rest != 0 {
+                        let i = rest.trailing_zeros() as usize;
+                        rest &= rest - 1;
+                        work.items += u64::from(count);
+                        if leaves(i).any(first, count, *t_max.get_unchecked(i)) {
+                            blocked |= 1 << i;
+                        }
+                    }
+                }
             }
+            if top == 0 {
+                return blocked;
+            }
+            top -= 1;
+            // SAFETY: entries below `top` were written above.
+            (current, mask) = *stack.add(top);
         }
-        if top == 0 {
-            return blocked;
-        }
-        top -= 1;
-        // SAFETY: entries below `top` were written above.
-        (current, mask) = *stack.add(top);
     }
 }

@@ -117,59 +117,64 @@ impl<W: Width> PacketRays<W> {
     /// Only from `W`'s `#[target_feature]` code ([`Width`]).
     #[inline(always)]
     pub unsafe fn load(rays: &[Ray]) -> PacketRays<W> {
-        let [ox, oy, oz, dx, dy, dz, t_min, t_max] = W::fields(rays);
-        let (origin, dir) = ([ox, oy, oz], [dx, dy, dz]);
-        let lanes = (1u32 << rays.len().min(W::N)) - 1;
-        // Ray::traceable_vectors, lane by lane.
-        let limit = W::splat(crate::geom::ray::COORDINATE_LIMIT);
-        let zero = W::splat(0.0);
-        let mut traceable = W::le(t_min, t_max) & W::ge(t_min, zero);
-        let mut moves = 0;
-        for a in 0..3 {
-            traceable &= W::le(W::abs(origin[a]), limit) & W::le(W::abs(dir[a]), limit);
-            moves |= W::gt(W::abs(dir[a]), zero);
-        }
-        // BoxRay::new, lane by lane.
-        let tiny = W::splat(1e-20);
-        let one = W::splat(1.0);
-        let infinity = W::splat(f32::INFINITY);
-        let mut inv = [zero; 3];
-        let mut fast = [[zero; 3]; 3];
-        let mut negative = [0u32; 3];
-        let mut fits = u32::MAX;
-        for a in 0..3 {
-            let d = dir[a];
-            let safe = W::select(W::lt(W::abs(d), tiny), d, W::copysign(tiny, d));
-            inv[a] = W::div(one, safe);
-            let sign = W::mul(origin[a], safe);
-            let near_k = W::add(one, W::copysign(W::splat(FAST_NEAR_MARGIN), sign));
-            let far_k = W::sub(
-                W::splat(FAST_FAR_SCALE),
-                W::copysign(W::splat(FAST_FAR_MARGIN), sign),
-            );
-            fast[0][a] = W::mul(W::mul(origin[a], near_k), inv[a]);
-            fast[1][a] = W::mul(inv[a], W::splat(FAST_FAR_SCALE));
-            fast[2][a] = W::mul(W::mul(origin[a], far_k), inv[a]);
-            fits &= W::lt(W::abs(fast[0][a]), infinity) & W::lt(W::abs(fast[2][a]), infinity);
-            negative[a] = W::lt(safe, zero);
-        }
-        PacketRays {
-            lanes: Lanes {
-                origin,
-                dir,
-                t_min,
-                behind: W::select(
-                    W::ge(t_min, W::splat(0.0)),
-                    W::splat(f32::NEG_INFINITY),
-                    W::splat(0.0),
-                ),
-            },
-            inv,
-            fast,
-            t_max,
-            traceable: traceable & moves & lanes,
-            fits,
-            negative,
+        // SAFETY: the caller upholds this kernel's contract: the width's CPU features are
+        // enabled (a detected token chose this code) and the tree was checked by
+        // `Tree::new`, so every node reference read from it is in range.
+        unsafe {
+            let [ox, oy, oz, dx, dy, dz, t_min, t_max] = W::fields(rays);
+            let (origin, dir) = ([ox, oy, oz], [dx, dy, dz]);
+            let lanes = (1u32 << rays.len().min(W::N)) - 1;
+            // Ray::traceable_vectors, lane by lane.
+            let limit = W::splat(crate::geom::ray::COORDINATE_LIMIT);
+            let zero = W::splat(0.0);
+            let mut traceable = W::le(t_min, t_max) & W::ge(t_min, zero);
+            let mut moves = 0;
+            for a in 0..3 {
+                traceable &= W::le(W::abs(origin[a]), limit) & W::le(W::abs(dir[a]), limit);
+                moves |= W::gt(W::abs(dir[a]), zero);
+            }
+            // BoxRay::new, lane by lane.
+            let tiny = W::splat(1e-20);
+            let one = W::splat(1.0);
+            let infinity = W::splat(f32::INFINITY);
+            let mut inv = [zero; 3];
+            let mut fast = [[zero; 3]; 3];
+            let mut negative = [0u32; 3];
+            let mut fits = u32::MAX;
+            for a in 0..3 {
+                let d = dir[a];
+                let safe = W::select(W::lt(W::abs(d), tiny), d, W::copysign(tiny, d));
+                inv[a] = W::div(one, safe);
+                let sign = W::mul(origin[a], safe);
+                let near_k = W::add(one, W::copysign(W::splat(FAST_NEAR_MARGIN), sign));
+                let far_k = W::sub(
+                    W::splat(FAST_FAR_SCALE),
+                    W::copysign(W::splat(FAST_FAR_MARGIN), sign),
+                );
+                fast[0][a] = W::mul(W::mul(origin[a], near_k), inv[a]);
+                fast[1][a] = W::mul(inv[a], W::splat(FAST_FAR_SCALE));
+                fast[2][a] = W::mul(W::mul(origin[a], far_k), inv[a]);
+                fits &= W::lt(W::abs(fast[0][a]), infinity) & W::lt(W::abs(fast[2][a]), infinity);
+                negative[a] = W::lt(safe, zero);
+            }
+            PacketRays {
+                lanes: Lanes {
+                    origin,
+                    dir,
+                    t_min,
+                    behind: W::select(
+                        W::ge(t_min, W::splat(0.0)),
+                        W::splat(f32::NEG_INFINITY),
+                        W::splat(0.0),
+                    ),
+                },
+                inv,
+                fast,
+                t_max,
+                traceable: traceable & moves & lanes,
+                fits,
+                negative,
+            }
         }
     }
 
@@ -190,20 +195,25 @@ impl<W: Width> PacketRays<W> {
     /// As [`PacketRays::load`].
     #[inline(always)]
     pub unsafe fn enters(&self, [lo, hi]: [Vec3A; 2], t_max: W::V) -> u32 {
-        let o = &self.lanes.origin;
-        let mut inside = u32::MAX;
-        let mut near = self.lanes.t_min;
-        let mut far = W::splat(f32::INFINITY);
-        for k in 0..3 {
-            let (l, h) = (W::splat(lo[k]), W::splat(hi[k]));
-            inside &= W::ge(o[k], l) & W::le(o[k], h);
-            let a = W::mul(W::sub(l, o[k]), self.inv[k]);
-            let b = W::mul(W::sub(h, o[k]), self.inv[k]);
-            near = W::max(near, W::min(a, b));
-            far = W::min(far, W::max(a, b));
+        // SAFETY: the caller upholds this kernel's contract: the width's CPU features are
+        // enabled (a detected token chose this code) and the tree was checked by
+        // `Tree::new`, so every node reference read from it is in range.
+        unsafe {
+            let o = &self.lanes.origin;
+            let mut inside = u32::MAX;
+            let mut near = self.lanes.t_min;
+            let mut far = W::splat(f32::INFINITY);
+            for k in 0..3 {
+                let (l, h) = (W::splat(lo[k]), W::splat(hi[k]));
+                inside &= W::ge(o[k], l) & W::le(o[k], h);
+                let a = W::mul(W::sub(l, o[k]), self.inv[k]);
+                let b = W::mul(W::sub(h, o[k]), self.inv[k]);
+                near = W::max(near, W::min(a, b));
+                far = W::min(far, W::max(a, b));
+            }
+            let far = W::min(W::mul(far, W::splat(BOX_FAR_SCALE)), t_max);
+            inside | W::le(near, far)
         }
-        let far = W::min(W::mul(far, W::splat(BOX_FAR_SCALE)), t_max);
-        inside | W::le(near, far)
     }
 
     /// Each lane's `t_max`.
@@ -212,9 +222,14 @@ impl<W: Width> PacketRays<W> {
     /// As [`PacketRays::load`].
     #[inline(always)]
     pub unsafe fn t_max(&self) -> [f32; MAX_LANES] {
-        let mut a = [0.0f32; MAX_LANES];
-        W::store(&mut a, self.t_max);
-        a
+        // SAFETY: the caller upholds this kernel's contract: the width's CPU features are
+        // enabled (a detected token chose this code) and the tree was checked by
+        // `Tree::new`, so every node reference read from it is in range.
+        unsafe {
+            let mut a = [0.0f32; MAX_LANES];
+            W::store(&mut a, self.t_max);
+            a
+        }
     }
 }
 
@@ -278,87 +293,93 @@ pub unsafe fn closest<W: Width, const ROBUST: bool, P: PacketLeaves<W>>(
     work: &mut Work,
     single_below: u32,
 ) -> u32 {
-    let ia = interval::<W, ROBUST>(packet);
-    let lanes = packet.rays;
-    let rows = packet.rows();
-    let shift = _mm_cvtsi32_si128(3 * packet.octant() as i32);
-    let mut refs = AlignedStack::<ChildRef>::new();
-    let mut masks = AlignedStack::<u32>::new();
-    let mut dists = AlignedStack::<f32>::new();
-    let (refs, masks, dists) = (refs.as_mut_ptr(), masks.as_mut_ptr(), dists.as_mut_ptr());
-    let mut top = 0usize;
-    let mut t_lanes = masked_t_max::<W>(t_max, packet.mask);
-    let mut far = W::max_of(t_lanes, packet.mask);
-    let mut current: ChildRef = 0;
-    let mut mask = packet.mask;
-    let mut hits = 0u32;
-    loop {
-        if !is_leaf(current) {
-            // SAFETY: the root, or an inner reference read from a node.
-            let node = tree.node_unchecked(current);
-            work.nodes += 1;
-            let (near, passed) = interval_slab::<ROBUST>(node, &ia, &rows, _mm256_set1_ps(far));
-            if passed != 0 {
-                // The passed children in the octant's order, farthest
-                // first: place `p` holds child `order[p] >> shift & 7`.
-                let order = _mm256_and_si256(
-                    _mm256_srl_epi32(_mm256_load_si256(node.order.as_ptr().cast()), shift),
-                    _mm256_set1_epi32(7),
-                );
-                let hit_v = _mm256_castsi256_ps(_mm256_cmpgt_epi32(
-                    _mm256_and_si256(
-                        _mm256_set1_epi32(passed as i32),
-                        _mm256_sllv_epi32(_mm256_set1_epi32(1), order),
-                    ),
-                    _mm256_setzero_si256(),
-                ));
-                let sorted = _mm256_movemask_ps(hit_v) as u32;
-                let mut places = [0u32; WIDTH];
-                _mm256_storeu_si256(places.as_mut_ptr().cast(), order);
-                let mut near_of = [0f32; WIDTH];
-                _mm256_storeu_ps(near_of.as_mut_ptr(), near);
-                for place in bits(sorted) {
-                    let c = places[place] as usize;
-                    let entering = lane_slab::<W, ROBUST>(node, c, lanes, &rows, t_lanes) & mask;
-                    if entering == 0 {
-                        continue;
-                    }
-                    let child = node.child[c];
-                    if entering.count_ones() < single_below {
-                        for i in bits(entering) {
-                            if single(leaves, i, child, &mut t_max[i], work) {
-                                hits |= 1 << i;
-                            }
-                        }
-                        t_lanes = masked_t_max::<W>(t_max, packet.mask);
-                        far = W::max_of(t_lanes, packet.mask);
-                        continue;
-                    }
-                    // SAFETY: each level leaves at most eight entries, the
-                    // depth is bounded by MAX_DEPTH, and STACK holds that.
-                    *refs.add(top) = child;
-                    *masks.add(top) = entering;
-                    *dists.add(top) = near_of[c];
-                    top += 1;
-                }
-            }
-        } else {
-            let (first, count) = (leaf_first(current), leaf_count(current));
-            work.items += u64::from(count * mask.count_ones());
-            hits |= leaves.nearest(first, count, mask, t_max);
-            t_lanes = masked_t_max::<W>(t_max, packet.mask);
-            far = W::max_of(t_lanes, packet.mask);
-        }
+    // SAFETY: the caller upholds this kernel's contract: the width's CPU features are
+    // enabled (a detected token chose this code) and the tree was checked by `Tree::new`,
+    // so every node reference read from it is in range.
+    unsafe {
+        let ia = interval::<W, ROBUST>(packet);
+        let lanes = packet.rays;
+        let rows = packet.rows();
+        let shift = _mm_cvtsi32_si128(3 * packet.octant() as i32);
+        let mut refs = AlignedStack::<ChildRef>::new();
+        let mut masks = AlignedStack::<u32>::new();
+        let mut dists = AlignedStack::<f32>::new();
+        let (refs, masks, dists) = (refs.as_mut_ptr(), masks.as_mut_ptr(), dists.as_mut_ptr());
+        let mut top = 0usize;
+        let mut t_lanes = masked_t_max::<W>(t_max, packet.mask);
+        let mut far = W::max_of(t_lanes, packet.mask);
+        let mut current: ChildRef = 0;
+        let mut mask = packet.mask;
+        let mut hits = 0u32;
         loop {
-            if top == 0 {
-                return hits;
+            if !is_leaf(current) {
+                // SAFETY: the root, or an inner reference read from a node.
+                let node = tree.node_unchecked(current);
+                work.nodes += 1;
+                let (near, passed) = interval_slab::<ROBUST>(node, &ia, &rows, _mm256_set1_ps(far));
+                if passed != 0 {
+                    // The passed children in the octant's order, farthest
+                    // first: place `p` holds child `order[p] >> shift & 7`.
+                    let order = _mm256_and_si256(
+                        _mm256_srl_epi32(_mm256_load_si256(node.order.as_ptr().cast()), shift),
+                        _mm256_set1_epi32(7),
+                    );
+                    let hit_v = _mm256_castsi256_ps(_mm256_cmpgt_epi32(
+                        _mm256_and_si256(
+                            _mm256_set1_epi32(passed as i32),
+                            _mm256_sllv_epi32(_mm256_set1_epi32(1), order),
+                        ),
+                        _mm256_setzero_si256(),
+                    ));
+                    let sorted = _mm256_movemask_ps(hit_v) as u32;
+                    let mut places = [0u32; WIDTH];
+                    _mm256_storeu_si256(places.as_mut_ptr().cast(), order);
+                    let mut near_of = [0f32; WIDTH];
+                    _mm256_storeu_ps(near_of.as_mut_ptr(), near);
+                    for place in bits(sorted) {
+                        let c = places[place] as usize;
+                        let entering =
+                            lane_slab::<W, ROBUST>(node, c, lanes, &rows, t_lanes) & mask;
+                        if entering == 0 {
+                            continue;
+                        }
+                        let child = node.child[c];
+                        if entering.count_ones() < single_below {
+                            for i in bits(entering) {
+                                if single(leaves, i, child, &mut t_max[i], work) {
+                                    hits |= 1 << i;
+                                }
+                            }
+                            t_lanes = masked_t_max::<W>(t_max, packet.mask);
+                            far = W::max_of(t_lanes, packet.mask);
+                            continue;
+                        }
+                        // SAFETY: each level leaves at most eight entries, the
+                        // depth is bounded by MAX_DEPTH, and STACK holds that.
+                        *refs.add(top) = child;
+                        *masks.add(top) = entering;
+                        *dists.add(top) = near_of[c];
+                        top += 1;
+                    }
+                }
+            } else {
+                let (first, count) = (leaf_first(current), leaf_count(current));
+                work.items += u64::from(count * mask.count_ones());
+                hits |= leaves.nearest(first, count, mask, t_max);
+                t_lanes = masked_t_max::<W>(t_max, packet.mask);
+                far = W::max_of(t_lanes, packet.mask);
             }
-            top -= 1;
-            // SAFETY: entries below `top` were written above.
-            if *dists.add(top) <= far {
-                current = *refs.add(top);
-                mask = *masks.add(top);
-                break;
+            loop {
+                if top == 0 {
+                    return hits;
+                }
+                top -= 1;
+                // SAFETY: entries below `top` were written above.
+                if *dists.add(top) <= far {
+                    current = *refs.add(top);
+                    mask = *masks.add(top);
+                    break;
+                }
             }
         }
     }
@@ -382,70 +403,75 @@ pub unsafe fn any<W: Width, const ROBUST: bool, P: PacketLeaves<W>>(
     work: &mut Work,
     single_below: u32,
 ) -> u32 {
-    let ia = interval::<W, ROBUST>(packet);
-    let lanes = packet.rays;
-    let rows = packet.rows();
-    let mut refs = AlignedStack::<ChildRef>::new();
-    let mut masks = AlignedStack::<u32>::new();
-    let (refs, masks) = (refs.as_mut_ptr(), masks.as_mut_ptr());
-    let mut top = 0usize;
-    let mut live = packet.mask;
-    let mut t_lanes = masked_t_max::<W>(t_max, live);
-    let mut far = W::max_of(t_lanes, live);
-    let mut current: ChildRef = 0;
-    let mut mask = live;
-    loop {
-        if !is_leaf(current) {
-            // SAFETY: the root, or an inner reference read from a node.
-            let node = tree.node_unchecked(current);
-            work.nodes += 1;
-            let (_, passed) = interval_slab::<ROBUST>(node, &ia, &rows, _mm256_set1_ps(far));
-            for c in bits(passed) {
-                let entering = lane_slab::<W, ROBUST>(node, c, lanes, &rows, t_lanes) & mask;
-                if entering == 0 {
-                    continue;
-                }
-                let child = node.child[c];
-                if entering.count_ones() < single_below {
-                    for i in bits(entering) {
-                        if single(leaves, i, child, t_max[i], work) {
-                            live &= !(1 << i);
-                        }
-                    }
-                    if live == 0 {
-                        return packet.mask;
-                    }
-                    mask &= live;
-                    t_lanes = masked_t_max::<W>(t_max, live);
-                    far = W::max_of(t_lanes, live);
-                    continue;
-                }
-                // SAFETY: as in `closest`.
-                *refs.add(top) = child;
-                *masks.add(top) = entering;
-                top += 1;
-            }
-        } else {
-            let (first, count) = (leaf_first(current), leaf_count(current));
-            work.items += u64::from(count * mask.count_ones());
-            live &= !leaves.any(first, count, mask, t_max);
-            if live == 0 {
-                return packet.mask;
-            }
-            t_lanes = masked_t_max::<W>(t_max, live);
-            far = W::max_of(t_lanes, live);
-        }
+    // SAFETY: the caller upholds this kernel's contract: the width's CPU features are
+    // enabled (a detected token chose this code) and the tree was checked by `Tree::new`,
+    // so every node reference read from it is in range.
+    unsafe {
+        let ia = interval::<W, ROBUST>(packet);
+        let lanes = packet.rays;
+        let rows = packet.rows();
+        let mut refs = AlignedStack::<ChildRef>::new();
+        let mut masks = AlignedStack::<u32>::new();
+        let (refs, masks) = (refs.as_mut_ptr(), masks.as_mut_ptr());
+        let mut top = 0usize;
+        let mut live = packet.mask;
+        let mut t_lanes = masked_t_max::<W>(t_max, live);
+        let mut far = W::max_of(t_lanes, live);
+        let mut current: ChildRef = 0;
+        let mut mask = live;
         loop {
-            if top == 0 {
-                return packet.mask & !live;
+            if !is_leaf(current) {
+                // SAFETY: the root, or an inner reference read from a node.
+                let node = tree.node_unchecked(current);
+                work.nodes += 1;
+                let (_, passed) = interval_slab::<ROBUST>(node, &ia, &rows, _mm256_set1_ps(far));
+                for c in bits(passed) {
+                    let entering = lane_slab::<W, ROBUST>(node, c, lanes, &rows, t_lanes) & mask;
+                    if entering == 0 {
+                        continue;
+                    }
+                    let child = node.child[c];
+                    if entering.count_ones() < single_below {
+                        for i in bits(entering) {
+                            if single(leaves, i, child, t_max[i], work) {
+                                live &= !(1 << i);
+                            }
+                        }
+                        if live == 0 {
+                            return packet.mask;
+                        }
+                        mask &= live;
+                        t_lanes = masked_t_max::<W>(t_max, live);
+                        far = W::max_of(t_lanes, live);
+                        continue;
+                    }
+                    // SAFETY: as in `closest`.
+                    *refs.add(top) = child;
+                    *masks.add(top) = entering;
+                    top += 1;
+                }
+            } else {
+                let (first, count) = (leaf_first(current), leaf_count(current));
+                work.items += u64::from(count * mask.count_ones());
+                live &= !leaves.any(first, count, mask, t_max);
+                if live == 0 {
+                    return packet.mask;
+                }
+                t_lanes = masked_t_max::<W>(t_max, live);
+                far = W::max_of(t_lanes, live);
             }
-            top -= 1;
-            // SAFETY: entries below `top` were written above.
-            let m = *masks.add(top) & live;
-            if m != 0 {
-                current = *refs.add(top);
-                mask = m;
-                break;
+            loop {
+                if top == 0 {
+                    return packet.mask & !live;
+                }
+                top -= 1;
+                // SAFETY: entries below `top` were written above.
+                let m = *masks.add(top) & live;
+                if m != 0 {
+                    current = *refs.add(top);
+                    mask = m;
+                    break;
+                }
             }
         }
     }

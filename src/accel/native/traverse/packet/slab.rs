@@ -37,65 +37,75 @@ fn constants<W: Width, const ROBUST: bool>(r: &PacketRays<W>) -> [&[W::V; 3]; 4]
 /// The interval test's constants of packet `p`.
 #[inline(always)]
 pub(super) unsafe fn interval<W: Width, const ROBUST: bool>(p: &Packet<W>) -> Interval {
-    let r = p.rays;
-    let [_, near_c, _, far_c] = constants::<W, ROBUST>(r);
-    let (mask, lead) = (p.mask, p.mask.trailing_zeros());
-    let splat = |x: f32| _mm256_set1_ps(x);
-    let zero = splat(0.0);
-    // The thirteen ends at once: maxima as minima of the negated lanes
-    // (exact), then per axis the reciprocals' range and the offsets' ends.
-    let neg = |v: W::V| W::xor(v, W::splat(-0.0));
-    let wants_min = |axis: usize| ROBUST && r.negative[axis] >> lead & 1 != 0;
-    let mut inputs = [r.lanes.t_min; 13];
-    for axis in 0..3 {
-        // Fast form `plane * r - c`: the largest `c` lowers the near
-        // distance, the smallest raises the far one. Robust form
-        // `(plane - o) * r`: which end of `o` does depends on the sign of
-        // `r`, the packet's octant.
-        let (nc, fc) = (near_c[axis], far_c[axis]);
-        inputs[1 + 4 * axis] = r.inv[axis];
-        inputs[2 + 4 * axis] = neg(r.inv[axis]);
-        inputs[3 + 4 * axis] = if wants_min(axis) { nc } else { neg(nc) };
-        inputs[4 + 4 * axis] = if wants_min(axis) { neg(fc) } else { fc };
-    }
-    let ends = W::min_each(inputs, mask);
-    let mut ia = Interval {
-        near_r: [(zero, zero); 3],
-        near_c: [zero; 3],
-        far_r: [(zero, zero); 3],
-        far_c: [zero; 3],
-        t_min: splat(ends[0]),
-    };
-    for axis in 0..3 {
-        let [r_lo, r_hi, nc, fc] = [1, 2, 3, 4].map(|k| ends[k + 4 * axis]);
-        let (r_hi, nc, fc) = if wants_min(axis) {
-            (-r_hi, nc, -fc)
-        } else {
-            (-r_hi, -nc, fc)
+    // SAFETY: the caller upholds this kernel's contract: the width's CPU features are
+    // enabled (a detected token chose this code) and the tree was checked by `Tree::new`,
+    // so every node reference read from it is in range.
+    unsafe {
+        let r = p.rays;
+        let [_, near_c, _, far_c] = constants::<W, ROBUST>(r);
+        let (mask, lead) = (p.mask, p.mask.trailing_zeros());
+        let splat = |x: f32| _mm256_set1_ps(x);
+        let zero = splat(0.0);
+        // The thirteen ends at once: maxima as minima of the negated lanes
+        // (exact), then per axis the reciprocals' range and the offsets' ends.
+        let neg = |v: W::V| W::xor(v, W::splat(-0.0));
+        let wants_min = |axis: usize| ROBUST && r.negative[axis] >> lead & 1 != 0;
+        let mut inputs = [r.lanes.t_min; 13];
+        for axis in 0..3 {
+            // Fast form `plane * r - c`: the largest `c` lowers the near
+            // distance, the smallest raises the far one. Robust form
+            // `(plane - o) * r`: which end of `o` does depends on the sign of
+            // `r`, the packet's octant.
+            let (nc, fc) = (near_c[axis], far_c[axis]);
+            inputs[1 + 4 * axis] = r.inv[axis];
+            inputs[2 + 4 * axis] = neg(r.inv[axis]);
+            inputs[3 + 4 * axis] = if wants_min(axis) { nc } else { neg(nc) };
+            inputs[4 + 4 * axis] = if wants_min(axis) { neg(fc) } else { fc };
+        }
+        let ends = W::min_each(inputs, mask);
+        let mut ia = Interval {
+            near_r: [(zero, zero); 3],
+            near_c: [zero; 3],
+            far_r: [(zero, zero); 3],
+            far_c: [zero; 3],
+            t_min: splat(ends[0]),
         };
-        ia.near_r[axis] = (splat(r_lo), splat(r_hi));
-        // The fast form's far reciprocal is `r (1 + 2^-20)` lane by lane;
-        // multiplying by a positive constant keeps the order, so its range
-        // is the reciprocals' range times the same constant.
-        ia.far_r[axis] = if ROBUST {
-            (splat(r_lo), splat(r_hi))
-        } else {
-            (splat(r_lo * FAST_FAR_SCALE), splat(r_hi * FAST_FAR_SCALE))
-        };
-        ia.near_c[axis] = splat(nc);
-        ia.far_c[axis] = splat(fc);
+        for axis in 0..3 {
+            let [r_lo, r_hi, nc, fc] = [1, 2, 3, 4].map(|k| ends[k + 4 * axis]);
+            let (r_hi, nc, fc) = if wants_min(axis) {
+                (-r_hi, nc, -fc)
+            } else {
+                (-r_hi, -nc, fc)
+            };
+            ia.near_r[axis] = (splat(r_lo), splat(r_hi));
+            // The fast form's far reciprocal is `r (1 + 2^-20)` lane by lane;
+            // multiplying by a positive constant keeps the order, so its range
+            // is the reciprocals' range times the same constant.
+            ia.far_r[axis] = if ROBUST {
+                (splat(r_lo), splat(r_hi))
+            } else {
+                (splat(r_lo * FAST_FAR_SCALE), splat(r_hi * FAST_FAR_SCALE))
+            };
+            ia.near_c[axis] = splat(nc);
+            ia.far_c[axis] = splat(fc);
+        }
+        ia
     }
-    ia
 }
 
 /// One plane's distance over the node's children, robust
 /// `(plane - c) * r` or fast `plane * r - c`.
 #[inline(always)]
 unsafe fn distance<const ROBUST: bool>(plane: __m256, r: __m256, c: __m256) -> __m256 {
-    if ROBUST {
-        _mm256_mul_ps(_mm256_sub_ps(plane, c), r)
-    } else {
-        _mm256_fmsub_ps(plane, r, c)
+    // SAFETY: the caller upholds this kernel's contract: the width's CPU features are
+    // enabled (a detected token chose this code) and the tree was checked by `Tree::new`,
+    // so every node reference read from it is in range.
+    unsafe {
+        if ROBUST {
+            _mm256_mul_ps(_mm256_sub_ps(plane, c), r)
+        } else {
+            _mm256_fmsub_ps(plane, r, c)
+        }
     }
 }
 
@@ -109,15 +119,20 @@ unsafe fn interval_end<const ROBUST: bool, const FAR: bool>(
     row: usize,
     axis: usize,
 ) -> __m256 {
-    let p = _mm256_load_ps(node.planes[row].as_ptr());
-    if FAR {
-        let (lo, hi) = ia.far_r[axis];
-        let c = ia.far_c[axis];
-        _mm256_max_ps(distance::<ROBUST>(p, lo, c), distance::<ROBUST>(p, hi, c))
-    } else {
-        let (lo, hi) = ia.near_r[axis];
-        let c = ia.near_c[axis];
-        _mm256_min_ps(distance::<ROBUST>(p, lo, c), distance::<ROBUST>(p, hi, c))
+    // SAFETY: the caller upholds this kernel's contract: the width's CPU features are
+    // enabled (a detected token chose this code) and the tree was checked by `Tree::new`,
+    // so every node reference read from it is in range.
+    unsafe {
+        let p = _mm256_load_ps(node.planes[row].as_ptr());
+        if FAR {
+            let (lo, hi) = ia.far_r[axis];
+            let c = ia.far_c[axis];
+            _mm256_max_ps(distance::<ROBUST>(p, lo, c), distance::<ROBUST>(p, hi, c))
+        } else {
+            let (lo, hi) = ia.near_r[axis];
+            let c = ia.near_c[axis];
+            _mm256_min_ps(distance::<ROBUST>(p, lo, c), distance::<ROBUST>(p, hi, c))
+        }
     }
 }
 
@@ -131,29 +146,34 @@ pub(super) unsafe fn interval_slab<const ROBUST: bool>(
     rows: &[(usize, usize); 3],
     t_max: __m256,
 ) -> (__m256, u32) {
-    // Calls of a function, not of closures: a closure is only hinted
-    // inline, and the two this replaces were compiled out of line (six
-    // calls a node; inlined, 0.97-1.05x, within the noise).
-    let (n0, n1, n2) = (
-        interval_end::<ROBUST, false>(node, ia, rows[0].0, 0),
-        interval_end::<ROBUST, false>(node, ia, rows[1].0, 1),
-        interval_end::<ROBUST, false>(node, ia, rows[2].0, 2),
-    );
-    let (f0, f1, f2) = (
-        interval_end::<ROBUST, true>(node, ia, rows[0].1, 0),
-        interval_end::<ROBUST, true>(node, ia, rows[1].1, 1),
-        interval_end::<ROBUST, true>(node, ia, rows[2].1, 2),
-    );
-    let near = _mm256_max_ps(_mm256_max_ps(n0, n1), _mm256_max_ps(n2, ia.t_min));
-    let far = _mm256_min_ps(_mm256_min_ps(f0, f1), f2);
-    let far = if ROBUST {
-        _mm256_mul_ps(far, _mm256_set1_ps(BOX_FAR_SCALE))
-    } else {
-        far
-    };
-    let far = _mm256_min_ps(far, t_max);
-    let hit = _mm256_cmp_ps::<_CMP_LE_OQ>(near, far);
-    (near, _mm256_movemask_ps(hit) as u32)
+    // SAFETY: the caller upholds this kernel's contract: the width's CPU features are
+    // enabled (a detected token chose this code) and the tree was checked by `Tree::new`,
+    // so every node reference read from it is in range.
+    unsafe {
+        // Calls of a function, not of closures: a closure is only hinted
+        // inline, and the two this replaces were compiled out of line (six
+        // calls a node; inlined, 0.97-1.05x, within the noise).
+        let (n0, n1, n2) = (
+            interval_end::<ROBUST, false>(node, ia, rows[0].0, 0),
+            interval_end::<ROBUST, false>(node, ia, rows[1].0, 1),
+            interval_end::<ROBUST, false>(node, ia, rows[2].0, 2),
+        );
+        let (f0, f1, f2) = (
+            interval_end::<ROBUST, true>(node, ia, rows[0].1, 0),
+            interval_end::<ROBUST, true>(node, ia, rows[1].1, 1),
+            interval_end::<ROBUST, true>(node, ia, rows[2].1, 2),
+        );
+        let near = _mm256_max_ps(_mm256_max_ps(n0, n1), _mm256_max_ps(n2, ia.t_min));
+        let far = _mm256_min_ps(_mm256_min_ps(f0, f1), f2);
+        let far = if ROBUST {
+            _mm256_mul_ps(far, _mm256_set1_ps(BOX_FAR_SCALE))
+        } else {
+            far
+        };
+        let far = _mm256_min_ps(far, t_max);
+        let hit = _mm256_cmp_ps::<_CMP_LE_OQ>(near, far);
+        (near, _mm256_movemask_ps(hit) as u32)
+    }
 }
 
 /// The rays (lanes) that enter child `c` of `node` within their own
@@ -166,32 +186,40 @@ pub(super) unsafe fn lane_slab<W: Width, const ROBUST: bool>(
     rows: &[(usize, usize); 3],
     t_max: W::V,
 ) -> u32 {
-    let [near_r, near_c, far_r, far_c] = constants::<W, ROBUST>(r);
-    let plane = |row: usize| W::splat(node.planes[row][c]);
-    let distance = |p: W::V, r: W::V, c: W::V| {
-        if ROBUST {
-            W::mul(W::sub(p, c), r)
+    // SAFETY: the caller upholds this kernel's contract: the width's CPU features are
+    // enabled (a detected token chose this code) and the tree was checked by `Tree::new`,
+    // so every node reference read from it is in range.
+    unsafe {
+        let [near_r, near_c, far_r, far_c] = constants::<W, ROBUST>(r);
+        let plane = |row: usize| W::splat(node.planes[row][c]);
+        let distance = |p: W::V, r: W::V, c: W::V| {
+            if ROBUST {
+                W::mul(W::sub(p, c), r)
+            } else {
+                W::fmsub(p, r, c)
+            }
+        };
+        let near_t = |a: usize| distance(plane(rows[a].0), near_r[a], near_c[a]);
+        let far_t = |a: usize| distance(plane(rows[a].1), far_r[a], far_c[a]);
+        let near = W::max(
+            W::max(near_t(0), near_t(1)),
+            W::max(near_t(2), r.lanes.t_min),
+        );
+        let far = W::min(W::min(far_t(0), far_t(1)), far_t(2));
+        let far = if ROBUST {
+            W::mul(far, W::splat(BOX_FAR_SCALE))
         } else {
-            W::fmsub(p, r, c)
-        }
-    };
-    let near_t = |a: usize| distance(plane(rows[a].0), near_r[a], near_c[a]);
-    let far_t = |a: usize| distance(plane(rows[a].1), far_r[a], far_c[a]);
-    let near = W::max(
-        W::max(near_t(0), near_t(1)),
-        W::max(near_t(2), r.lanes.t_min),
-    );
-    let far = W::min(W::min(far_t(0), far_t(1)), far_t(2));
-    let far = if ROBUST {
-        W::mul(far, W::splat(BOX_FAR_SCALE))
-    } else {
-        far
-    };
-    W::le(near, W::min(far, t_max))
+            far
+        };
+        W::le(near, W::min(far, t_max))
+    }
 }
 
 /// Lanes outside `mask` set to `-inf`, so that no box test passes there.
 #[inline(always)]
 pub(super) unsafe fn masked_t_max<W: Width>(t_max: &[f32; MAX_LANES], mask: u32) -> W::V {
-    W::select(mask, W::splat(f32::NEG_INFINITY), W::load(t_max))
+    // SAFETY: the caller upholds this kernel's contract: the width's CPU features are
+    // enabled (a detected token chose this code) and the tree was checked by `Tree::new`,
+    // so every node reference read from it is in range.
+    unsafe { W::select(mask, W::splat(f32::NEG_INFINITY), W::load(t_max)) }
 }

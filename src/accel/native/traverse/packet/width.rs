@@ -71,54 +71,64 @@ pub struct X8;
 /// The lanes of `mask` as an AVX2 vector mask.
 #[inline(always)]
 unsafe fn lane_mask8(mask: u32) -> __m256 {
-    let bits = _mm256_setr_epi32(1, 2, 4, 8, 16, 32, 64, 128);
-    _mm256_castsi256_ps(_mm256_cmpeq_epi32(
-        _mm256_and_si256(_mm256_set1_epi32(mask as i32), bits),
-        bits,
-    ))
+    // SAFETY: the caller runs with AVX2 enabled, as the `Width` contract requires of every
+    // lane operation; memory is reached only through references to whole lane arrays and
+    // rays.
+    unsafe {
+        let bits = _mm256_setr_epi32(1, 2, 4, 8, 16, 32, 64, 128);
+        _mm256_castsi256_ps(_mm256_cmpeq_epi32(
+            _mm256_and_si256(_mm256_set1_epi32(mask as i32), bits),
+            bits,
+        ))
+    }
 }
 
 /// Up to eight rays' eight floats, transposed.
 #[inline(always)]
 pub(super) unsafe fn fields8(rays: &[Ray]) -> [__m256; 8] {
-    let last = rays.len().min(8) - 1;
-    let row = |i: usize| _mm256_loadu_ps((&rays[i.min(last)] as *const Ray).cast::<f32>());
-    let r = [
-        row(0),
-        row(1),
-        row(2),
-        row(3),
-        row(4),
-        row(5),
-        row(6),
-        row(7),
-    ];
-    let t0 = _mm256_unpacklo_ps(r[0], r[1]);
-    let t1 = _mm256_unpackhi_ps(r[0], r[1]);
-    let t2 = _mm256_unpacklo_ps(r[2], r[3]);
-    let t3 = _mm256_unpackhi_ps(r[2], r[3]);
-    let t4 = _mm256_unpacklo_ps(r[4], r[5]);
-    let t5 = _mm256_unpackhi_ps(r[4], r[5]);
-    let t6 = _mm256_unpacklo_ps(r[6], r[7]);
-    let t7 = _mm256_unpackhi_ps(r[6], r[7]);
-    let u0 = _mm256_shuffle_ps::<0x44>(t0, t2);
-    let u1 = _mm256_shuffle_ps::<0xEE>(t0, t2);
-    let u2 = _mm256_shuffle_ps::<0x44>(t1, t3);
-    let u3 = _mm256_shuffle_ps::<0xEE>(t1, t3);
-    let u4 = _mm256_shuffle_ps::<0x44>(t4, t6);
-    let u5 = _mm256_shuffle_ps::<0xEE>(t4, t6);
-    let u6 = _mm256_shuffle_ps::<0x44>(t5, t7);
-    let u7 = _mm256_shuffle_ps::<0xEE>(t5, t7);
-    [
-        _mm256_permute2f128_ps::<0x20>(u0, u4),
-        _mm256_permute2f128_ps::<0x20>(u1, u5),
-        _mm256_permute2f128_ps::<0x20>(u2, u6),
-        _mm256_permute2f128_ps::<0x20>(u3, u7),
-        _mm256_permute2f128_ps::<0x31>(u0, u4),
-        _mm256_permute2f128_ps::<0x31>(u1, u5),
-        _mm256_permute2f128_ps::<0x31>(u2, u6),
-        _mm256_permute2f128_ps::<0x31>(u3, u7),
-    ]
+    // SAFETY: the caller runs with AVX2 enabled, as the `Width` contract requires of every
+    // lane operation; memory is reached only through references to whole lane arrays and
+    // rays.
+    unsafe {
+        let last = rays.len().min(8) - 1;
+        let row = |i: usize| _mm256_loadu_ps((&rays[i.min(last)] as *const Ray).cast::<f32>());
+        let r = [
+            row(0),
+            row(1),
+            row(2),
+            row(3),
+            row(4),
+            row(5),
+            row(6),
+            row(7),
+        ];
+        let t0 = _mm256_unpacklo_ps(r[0], r[1]);
+        let t1 = _mm256_unpackhi_ps(r[0], r[1]);
+        let t2 = _mm256_unpacklo_ps(r[2], r[3]);
+        let t3 = _mm256_unpackhi_ps(r[2], r[3]);
+        let t4 = _mm256_unpacklo_ps(r[4], r[5]);
+        let t5 = _mm256_unpackhi_ps(r[4], r[5]);
+        let t6 = _mm256_unpacklo_ps(r[6], r[7]);
+        let t7 = _mm256_unpackhi_ps(r[6], r[7]);
+        let u0 = _mm256_shuffle_ps::<0x44>(t0, t2);
+        let u1 = _mm256_shuffle_ps::<0xEE>(t0, t2);
+        let u2 = _mm256_shuffle_ps::<0x44>(t1, t3);
+        let u3 = _mm256_shuffle_ps::<0xEE>(t1, t3);
+        let u4 = _mm256_shuffle_ps::<0x44>(t4, t6);
+        let u5 = _mm256_shuffle_ps::<0xEE>(t4, t6);
+        let u6 = _mm256_shuffle_ps::<0x44>(t5, t7);
+        let u7 = _mm256_shuffle_ps::<0xEE>(t5, t7);
+        [
+            _mm256_permute2f128_ps::<0x20>(u0, u4),
+            _mm256_permute2f128_ps::<0x20>(u1, u5),
+            _mm256_permute2f128_ps::<0x20>(u2, u6),
+            _mm256_permute2f128_ps::<0x20>(u3, u7),
+            _mm256_permute2f128_ps::<0x31>(u0, u4),
+            _mm256_permute2f128_ps::<0x31>(u1, u5),
+            _mm256_permute2f128_ps::<0x31>(u2, u6),
+            _mm256_permute2f128_ps::<0x31>(u3, u7),
+        ]
+    }
 }
 
 unsafe impl Width for X8 {
@@ -126,91 +136,157 @@ unsafe impl Width for X8 {
     const N: usize = 8;
     #[inline(always)]
     unsafe fn splat(x: f32) -> __m256 {
-        _mm256_set1_ps(x)
+        // SAFETY: the caller runs with AVX2 enabled, as the `Width` contract requires of
+        // every lane operation; memory is reached only through references to whole lane
+        // arrays and rays.
+        unsafe { _mm256_set1_ps(x) }
     }
     #[inline(always)]
     unsafe fn add(a: __m256, b: __m256) -> __m256 {
-        _mm256_add_ps(a, b)
+        // SAFETY: the caller runs with AVX2 enabled, as the `Width` contract requires of
+        // every lane operation; memory is reached only through references to whole lane
+        // arrays and rays.
+        unsafe { _mm256_add_ps(a, b) }
     }
     #[inline(always)]
     unsafe fn sub(a: __m256, b: __m256) -> __m256 {
-        _mm256_sub_ps(a, b)
+        // SAFETY: the caller runs with AVX2 enabled, as the `Width` contract requires of
+        // every lane operation; memory is reached only through references to whole lane
+        // arrays and rays.
+        unsafe { _mm256_sub_ps(a, b) }
     }
     #[inline(always)]
     unsafe fn mul(a: __m256, b: __m256) -> __m256 {
-        _mm256_mul_ps(a, b)
+        // SAFETY: the caller runs with AVX2 enabled, as the `Width` contract requires of
+        // every lane operation; memory is reached only through references to whole lane
+        // arrays and rays.
+        unsafe { _mm256_mul_ps(a, b) }
     }
     #[inline(always)]
     unsafe fn div(a: __m256, b: __m256) -> __m256 {
-        _mm256_div_ps(a, b)
+        // SAFETY: the caller runs with AVX2 enabled, as the `Width` contract requires of
+        // every lane operation; memory is reached only through references to whole lane
+        // arrays and rays.
+        unsafe { _mm256_div_ps(a, b) }
     }
     #[inline(always)]
     unsafe fn fmsub(a: __m256, b: __m256, c: __m256) -> __m256 {
-        _mm256_fmsub_ps(a, b, c)
+        // SAFETY: the caller runs with AVX2 enabled, as the `Width` contract requires of
+        // every lane operation; memory is reached only through references to whole lane
+        // arrays and rays.
+        unsafe { _mm256_fmsub_ps(a, b, c) }
     }
     #[inline(always)]
     unsafe fn min(a: __m256, b: __m256) -> __m256 {
-        _mm256_min_ps(a, b)
+        // SAFETY: the caller runs with AVX2 enabled, as the `Width` contract requires of
+        // every lane operation; memory is reached only through references to whole lane
+        // arrays and rays.
+        unsafe { _mm256_min_ps(a, b) }
     }
     #[inline(always)]
     unsafe fn max(a: __m256, b: __m256) -> __m256 {
-        _mm256_max_ps(a, b)
+        // SAFETY: the caller runs with AVX2 enabled, as the `Width` contract requires of
+        // every lane operation; memory is reached only through references to whole lane
+        // arrays and rays.
+        unsafe { _mm256_max_ps(a, b) }
     }
     #[inline(always)]
     unsafe fn xor(a: __m256, b: __m256) -> __m256 {
-        _mm256_xor_ps(a, b)
+        // SAFETY: the caller runs with AVX2 enabled, as the `Width` contract requires of
+        // every lane operation; memory is reached only through references to whole lane
+        // arrays and rays.
+        unsafe { _mm256_xor_ps(a, b) }
     }
     #[inline(always)]
     unsafe fn abs(a: __m256) -> __m256 {
-        _mm256_andnot_ps(_mm256_set1_ps(-0.0), a)
+        // SAFETY: the caller runs with AVX2 enabled, as the `Width` contract requires of
+        // every lane operation; memory is reached only through references to whole lane
+        // arrays and rays.
+        unsafe { _mm256_andnot_ps(_mm256_set1_ps(-0.0), a) }
     }
     #[inline(always)]
     unsafe fn copysign(m: __m256, s: __m256) -> __m256 {
-        let sign = _mm256_set1_ps(-0.0);
-        _mm256_or_ps(_mm256_andnot_ps(sign, m), _mm256_and_ps(sign, s))
+        // SAFETY: the caller runs with AVX2 enabled, as the `Width` contract requires of
+        // every lane operation; memory is reached only through references to whole lane
+        // arrays and rays.
+        unsafe {
+            let sign = _mm256_set1_ps(-0.0);
+            _mm256_or_ps(_mm256_andnot_ps(sign, m), _mm256_and_ps(sign, s))
+        }
     }
     #[inline(always)]
     unsafe fn le(a: __m256, b: __m256) -> u32 {
-        _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(a, b)) as u32
+        // SAFETY: the caller runs with AVX2 enabled, as the `Width` contract requires of
+        // every lane operation; memory is reached only through references to whole lane
+        // arrays and rays.
+        unsafe { _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(a, b)) as u32 }
     }
     #[inline(always)]
     unsafe fn lt(a: __m256, b: __m256) -> u32 {
-        _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LT_OQ>(a, b)) as u32
+        // SAFETY: the caller runs with AVX2 enabled, as the `Width` contract requires of
+        // every lane operation; memory is reached only through references to whole lane
+        // arrays and rays.
+        unsafe { _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LT_OQ>(a, b)) as u32 }
     }
     #[inline(always)]
     unsafe fn gt(a: __m256, b: __m256) -> u32 {
-        _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_GT_OQ>(a, b)) as u32
+        // SAFETY: the caller runs with AVX2 enabled, as the `Width` contract requires of
+        // every lane operation; memory is reached only through references to whole lane
+        // arrays and rays.
+        unsafe { _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_GT_OQ>(a, b)) as u32 }
     }
     #[inline(always)]
     unsafe fn ge(a: __m256, b: __m256) -> u32 {
-        _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_GE_OQ>(a, b)) as u32
+        // SAFETY: the caller runs with AVX2 enabled, as the `Width` contract requires of
+        // every lane operation; memory is reached only through references to whole lane
+        // arrays and rays.
+        unsafe { _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_GE_OQ>(a, b)) as u32 }
     }
     #[inline(always)]
     unsafe fn select(mask: u32, no: __m256, yes: __m256) -> __m256 {
-        _mm256_blendv_ps(no, yes, lane_mask8(mask))
+        // SAFETY: the caller runs with AVX2 enabled, as the `Width` contract requires of
+        // every lane operation; memory is reached only through references to whole lane
+        // arrays and rays.
+        unsafe { _mm256_blendv_ps(no, yes, lane_mask8(mask)) }
     }
     #[inline(always)]
     unsafe fn load(p: &[f32; MAX_LANES]) -> __m256 {
-        _mm256_loadu_ps(p.as_ptr())
+        // SAFETY: the caller runs with AVX2 enabled, as the `Width` contract requires of
+        // every lane operation; memory is reached only through references to whole lane
+        // arrays and rays.
+        unsafe { _mm256_loadu_ps(p.as_ptr()) }
     }
     #[inline(always)]
     unsafe fn store(p: &mut [f32; MAX_LANES], v: __m256) {
-        _mm256_storeu_ps(p.as_mut_ptr(), v)
+        // SAFETY: the caller runs with AVX2 enabled, as the `Width` contract requires of
+        // every lane operation; memory is reached only through references to whole lane
+        // arrays and rays.
+        unsafe { _mm256_storeu_ps(p.as_mut_ptr(), v) }
     }
     #[cfg(test)]
     #[inline(always)]
     unsafe fn min_of(v: __m256, mask: u32) -> f32 {
-        let m = X8::select(mask, _mm256_set1_ps(f32::INFINITY), v);
-        let m = _mm256_min_ps(m, _mm256_permute2f128_ps::<1>(m, m));
-        let m = _mm256_min_ps(m, _mm256_shuffle_ps::<0b0100_1110>(m, m));
-        _mm256_cvtss_f32(_mm256_min_ps(m, _mm256_shuffle_ps::<0b1011_0001>(m, m)))
+        // SAFETY: the caller runs with AVX2 enabled, as the `Width` contract requires of
+        // every lane operation; memory is reached only through references to whole lane
+        // arrays and rays.
+        unsafe {
+            let m = X8::select(mask, _mm256_set1_ps(f32::INFINITY), v);
+            let m = _mm256_min_ps(m, _mm256_permute2f128_ps::<1>(m, m));
+            let m = _mm256_min_ps(m, _mm256_shuffle_ps::<0b0100_1110>(m, m));
+            _mm256_cvtss_f32(_mm256_min_ps(m, _mm256_shuffle_ps::<0b1011_0001>(m, m)))
+        }
     }
     #[inline(always)]
     unsafe fn max_of(v: __m256, mask: u32) -> f32 {
-        let m = X8::select(mask, _mm256_set1_ps(f32::NEG_INFINITY), v);
-        let m = _mm256_max_ps(m, _mm256_permute2f128_ps::<1>(m, m));
-        let m = _mm256_max_ps(m, _mm256_shuffle_ps::<0b0100_1110>(m, m));
-        _mm256_cvtss_f32(_mm256_max_ps(m, _mm256_shuffle_ps::<0b1011_0001>(m, m)))
+        // SAFETY: the caller runs with AVX2 enabled, as the `Width` contract requires of
+        // every lane operation; memory is reached only through references to whole lane
+        // arrays and rays.
+        unsafe {
+            let m = X8::select(mask, _mm256_set1_ps(f32::NEG_INFINITY), v);
+            let m = _mm256_max_ps(m, _mm256_permute2f128_ps::<1>(m, m));
+            let m = _mm256_max_ps(m, _mm256_shuffle_ps::<0b0100_1110>(m, m));
+            _mm256_cvtss_f32(_mm256_max_ps(m, _mm256_shuffle_ps::<0b1011_0001>(m, m)))
+        }
     }
     /// Up to sixteen minima at once: three rounds, each halving the lanes
     /// left of every input while pairing inputs into one register (42
@@ -218,54 +294,62 @@ unsafe impl Width for X8 {
     /// as [`X16::min_each`] does at sixteen lanes.
     #[inline(always)]
     unsafe fn min_each<const K: usize>(v: [__m256; K], mask: u32) -> [f32; K] {
-        const { assert!(K <= 16) };
-        let inf = _mm256_set1_ps(f32::INFINITY);
-        let lanes = lane_mask8(mask);
-        let mut x = [inf; 16];
-        for k in 0..K {
-            x[k] = _mm256_blendv_ps(inf, v[k], lanes);
+        // SAFETY: the caller runs with AVX2 enabled, as the `Width` contract requires of
+        // every lane operation; memory is reached only through references to whole lane
+        // arrays and rays.
+        unsafe {
+            const { assert!(K <= 16) };
+            let inf = _mm256_set1_ps(f32::INFINITY);
+            let lanes = lane_mask8(mask);
+            let mut x = [inf; 16];
+            for k in 0..K {
+                x[k] = _mm256_blendv_ps(inf, v[k], lanes);
+            }
+            // Round one: register k holds inputs 2k and 2k + 1, one 128-bit
+            // half each; round two: register m holds, per half, two lanes of
+            // inputs 4m and 4m + 2 (low half) or 4m + 1 and 4m + 3 (high).
+            let mut c = [_mm256_setzero_ps(); 8];
+            for k in 0..8 {
+                let (a, b) = (x[2 * k], x[2 * k + 1]);
+                c[k] = _mm256_min_ps(
+                    _mm256_permute2f128_ps::<0x20>(a, b),
+                    _mm256_permute2f128_ps::<0x31>(a, b),
+                );
+            }
+            let mut d = [_mm256_setzero_ps(); 4];
+            for m in 0..4 {
+                let (a, b) = (c[2 * m], c[2 * m + 1]);
+                d[m] = _mm256_min_ps(
+                    _mm256_shuffle_ps::<0x44>(a, b),
+                    _mm256_shuffle_ps::<0xEE>(a, b),
+                );
+            }
+            // Round three: lane j of register h is input 8h + 2 (j % 4) + j / 4.
+            let mut e = [_mm256_setzero_ps(); 2];
+            for h in 0..2 {
+                let (a, b) = (d[2 * h], d[2 * h + 1]);
+                e[h] = _mm256_min_ps(
+                    _mm256_shuffle_ps::<0x88>(a, b),
+                    _mm256_shuffle_ps::<0xDD>(a, b),
+                );
+            }
+            let mut out = [0.0f32; 16];
+            _mm256_storeu_ps(out.as_mut_ptr(), e[0]);
+            _mm256_storeu_ps(out.as_mut_ptr().add(8), e[1]);
+            let mut each = [0.0f32; K];
+            for k in 0..K {
+                let r = k % 8;
+                each[k] = out[8 * (k / 8) + 4 * (r % 2) + r / 2];
+            }
+            each
         }
-        // Round one: register k holds inputs 2k and 2k + 1, one 128-bit
-        // half each; round two: register m holds, per half, two lanes of
-        // inputs 4m and 4m + 2 (low half) or 4m + 1 and 4m + 3 (high).
-        let mut c = [_mm256_setzero_ps(); 8];
-        for k in 0..8 {
-            let (a, b) = (x[2 * k], x[2 * k + 1]);
-            c[k] = _mm256_min_ps(
-                _mm256_permute2f128_ps::<0x20>(a, b),
-                _mm256_permute2f128_ps::<0x31>(a, b),
-            );
-        }
-        let mut d = [_mm256_setzero_ps(); 4];
-        for m in 0..4 {
-            let (a, b) = (c[2 * m], c[2 * m + 1]);
-            d[m] = _mm256_min_ps(
-                _mm256_shuffle_ps::<0x44>(a, b),
-                _mm256_shuffle_ps::<0xEE>(a, b),
-            );
-        }
-        // Round three: lane j of register h is input 8h + 2 (j % 4) + j / 4.
-        let mut e = [_mm256_setzero_ps(); 2];
-        for h in 0..2 {
-            let (a, b) = (d[2 * h], d[2 * h + 1]);
-            e[h] = _mm256_min_ps(
-                _mm256_shuffle_ps::<0x88>(a, b),
-                _mm256_shuffle_ps::<0xDD>(a, b),
-            );
-        }
-        let mut out = [0.0f32; 16];
-        _mm256_storeu_ps(out.as_mut_ptr(), e[0]);
-        _mm256_storeu_ps(out.as_mut_ptr().add(8), e[1]);
-        let mut each = [0.0f32; K];
-        for k in 0..K {
-            let r = k % 8;
-            each[k] = out[8 * (k / 8) + 4 * (r % 2) + r / 2];
-        }
-        each
     }
     #[inline(always)]
     unsafe fn fields(rays: &[Ray]) -> [__m256; 8] {
-        fields8(rays)
+        // SAFETY: the caller runs with AVX2 enabled, as the `Width` contract requires of
+        // every lane operation; memory is reached only through references to whole lane
+        // arrays and rays.
+        unsafe { fields8(rays) }
     }
 }
 
@@ -275,12 +359,17 @@ mod tests {
 
     #[target_feature(enable = "avx2")]
     unsafe fn minima8(v: &[[f32; MAX_LANES]; 13], mask: u32) -> ([f32; 13], [f32; 13]) {
-        let vectors = v.map(|a| X8::load(&a));
-        let mut one_by_one = [0.0; 13];
-        for (k, x) in vectors.iter().enumerate() {
-            one_by_one[k] = X8::min_of(*x, mask);
+        // SAFETY: the caller runs with AVX2 enabled, as the `Width` contract requires of
+        // every lane operation; memory is reached only through references to whole lane
+        // arrays and rays.
+        unsafe {
+            let vectors = v.map(|a| X8::load(&a));
+            let mut one_by_one = [0.0; 13];
+            for (k, x) in vectors.iter().enumerate() {
+                one_by_one[k] = X8::min_of(*x, mask);
+            }
+            (X8::min_each(vectors, mask), one_by_one)
         }
-        (X8::min_each(vectors, mask), one_by_one)
     }
 
     #[test]

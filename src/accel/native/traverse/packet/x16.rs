@@ -15,14 +15,19 @@ pub struct X16;
 /// `k + step` those picked by `odd`.
 #[inline(always)]
 unsafe fn shuffle_round(x: [__m512; 8], step: usize, even: __m512i, odd: __m512i) -> [__m512; 8] {
-    let mut y = x;
-    for k in 0..8 {
-        if k & step == 0 {
-            y[k] = _mm512_permutex2var_ps(x[k], even, x[k + step]);
-            y[k + step] = _mm512_permutex2var_ps(x[k], odd, x[k + step]);
+    // SAFETY: the caller runs with AVX-512F and AVX2 enabled, as the `Width` contract
+    // requires of every lane operation; memory is reached only through references to whole
+    // lane arrays and rays.
+    unsafe {
+        let mut y = x;
+        for k in 0..8 {
+            if k & step == 0 {
+                y[k] = _mm512_permutex2var_ps(x[k], even, x[k + step]);
+                y[k + step] = _mm512_permutex2var_ps(x[k], odd, x[k + step]);
+            }
         }
+        y
     }
-    y
 }
 
 /// Sixteen rays' eight floats, transposed: eight loads of two rays each,
@@ -31,33 +36,38 @@ unsafe fn shuffle_round(x: [__m512; 8], step: usize, even: __m512i, odd: __m512i
 /// lane), 24 shuffles where [`fields8`] twice takes 56.
 #[inline(always)]
 unsafe fn fields16(rays: &[Ray; 16]) -> [__m512; 8] {
-    let base = rays.as_ptr().cast::<f32>();
-    let mut z = [_mm512_setzero_ps(); 8];
-    for (j, register) in z.iter_mut().enumerate() {
-        *register = _mm512_loadu_ps(base.add(16 * j));
+    // SAFETY: the caller runs with AVX-512F and AVX2 enabled, as the `Width` contract
+    // requires of every lane operation; memory is reached only through references to whole
+    // lane arrays and rays.
+    unsafe {
+        let base = rays.as_ptr().cast::<f32>();
+        let mut z = [_mm512_setzero_ps(); 8];
+        for (j, register) in z.iter_mut().enumerate() {
+            *register = _mm512_loadu_ps(base.add(16 * j));
+        }
+        // Register j holds rays 2j and 2j + 1. Round one: four-float blocks,
+        // fields 0-3 of rays (2j, 2j + 1, 2j + 8, 2j + 9) and fields 4-7.
+        let mut a = [_mm512_setzero_ps(); 8];
+        for j in 0..4 {
+            a[j] = _mm512_shuffle_f32x4::<0x88>(z[j], z[j + 4]);
+            a[j + 4] = _mm512_shuffle_f32x4::<0xDD>(z[j], z[j + 4]);
+        }
+        // Round two: pairs of fields; round three: single fields, rays in
+        // order. An index picks from the first register (0-15) or the second
+        // (16-31).
+        let b = shuffle_round(
+            a,
+            2,
+            _mm512_setr_epi32(0, 1, 4, 5, 16, 17, 20, 21, 8, 9, 12, 13, 24, 25, 28, 29),
+            _mm512_setr_epi32(2, 3, 6, 7, 18, 19, 22, 23, 10, 11, 14, 15, 26, 27, 30, 31),
+        );
+        shuffle_round(
+            b,
+            1,
+            _mm512_setr_epi32(0, 2, 16, 18, 4, 6, 20, 22, 8, 10, 24, 26, 12, 14, 28, 30),
+            _mm512_setr_epi32(1, 3, 17, 19, 5, 7, 21, 23, 9, 11, 25, 27, 13, 15, 29, 31),
+        )
     }
-    // Register j holds rays 2j and 2j + 1. Round one: four-float blocks,
-    // fields 0-3 of rays (2j, 2j + 1, 2j + 8, 2j + 9) and fields 4-7.
-    let mut a = [_mm512_setzero_ps(); 8];
-    for j in 0..4 {
-        a[j] = _mm512_shuffle_f32x4::<0x88>(z[j], z[j + 4]);
-        a[j + 4] = _mm512_shuffle_f32x4::<0xDD>(z[j], z[j + 4]);
-    }
-    // Round two: pairs of fields; round three: single fields, rays in
-    // order. An index picks from the first register (0-15) or the second
-    // (16-31).
-    let b = shuffle_round(
-        a,
-        2,
-        _mm512_setr_epi32(0, 1, 4, 5, 16, 17, 20, 21, 8, 9, 12, 13, 24, 25, 28, 29),
-        _mm512_setr_epi32(2, 3, 6, 7, 18, 19, 22, 23, 10, 11, 14, 15, 26, 27, 30, 31),
-    );
-    shuffle_round(
-        b,
-        1,
-        _mm512_setr_epi32(0, 2, 16, 18, 4, 6, 20, 22, 8, 10, 24, 26, 12, 14, 28, 30),
-        _mm512_setr_epi32(1, 3, 17, 19, 5, 7, 21, 23, 9, 11, 25, 27, 13, 15, 29, 31),
-    )
 }
 
 unsafe impl Width for X16 {
@@ -65,166 +75,242 @@ unsafe impl Width for X16 {
     const N: usize = 16;
     #[inline(always)]
     unsafe fn splat(x: f32) -> __m512 {
-        _mm512_set1_ps(x)
+        // SAFETY: the caller runs with AVX-512F and AVX2 enabled, as the `Width` contract
+        // requires of every lane operation; memory is reached only through references to
+        // whole lane arrays and rays.
+        unsafe { _mm512_set1_ps(x) }
     }
     #[inline(always)]
     unsafe fn add(a: __m512, b: __m512) -> __m512 {
-        _mm512_add_ps(a, b)
+        // SAFETY: the caller runs with AVX-512F and AVX2 enabled, as the `Width` contract
+        // requires of every lane operation; memory is reached only through references to
+        // whole lane arrays and rays.
+        unsafe { _mm512_add_ps(a, b) }
     }
     #[inline(always)]
     unsafe fn sub(a: __m512, b: __m512) -> __m512 {
-        _mm512_sub_ps(a, b)
+        // SAFETY: the caller runs with AVX-512F and AVX2 enabled, as the `Width` contract
+        // requires of every lane operation; memory is reached only through references to
+        // whole lane arrays and rays.
+        unsafe { _mm512_sub_ps(a, b) }
     }
     #[inline(always)]
     unsafe fn mul(a: __m512, b: __m512) -> __m512 {
-        _mm512_mul_ps(a, b)
+        // SAFETY: the caller runs with AVX-512F and AVX2 enabled, as the `Width` contract
+        // requires of every lane operation; memory is reached only through references to
+        // whole lane arrays and rays.
+        unsafe { _mm512_mul_ps(a, b) }
     }
     #[inline(always)]
     unsafe fn div(a: __m512, b: __m512) -> __m512 {
-        _mm512_div_ps(a, b)
+        // SAFETY: the caller runs with AVX-512F and AVX2 enabled, as the `Width` contract
+        // requires of every lane operation; memory is reached only through references to
+        // whole lane arrays and rays.
+        unsafe { _mm512_div_ps(a, b) }
     }
     #[inline(always)]
     unsafe fn fmsub(a: __m512, b: __m512, c: __m512) -> __m512 {
-        _mm512_fmsub_ps(a, b, c)
+        // SAFETY: the caller runs with AVX-512F and AVX2 enabled, as the `Width` contract
+        // requires of every lane operation; memory is reached only through references to
+        // whole lane arrays and rays.
+        unsafe { _mm512_fmsub_ps(a, b, c) }
     }
     #[inline(always)]
     unsafe fn min(a: __m512, b: __m512) -> __m512 {
-        _mm512_min_ps(a, b)
+        // SAFETY: the caller runs with AVX-512F and AVX2 enabled, as the `Width` contract
+        // requires of every lane operation; memory is reached only through references to
+        // whole lane arrays and rays.
+        unsafe { _mm512_min_ps(a, b) }
     }
     #[inline(always)]
     unsafe fn max(a: __m512, b: __m512) -> __m512 {
-        _mm512_max_ps(a, b)
+        // SAFETY: the caller runs with AVX-512F and AVX2 enabled, as the `Width` contract
+        // requires of every lane operation; memory is reached only through references to
+        // whole lane arrays and rays.
+        unsafe { _mm512_max_ps(a, b) }
     }
     #[inline(always)]
     unsafe fn xor(a: __m512, b: __m512) -> __m512 {
-        _mm512_castsi512_ps(_mm512_xor_si512(
-            _mm512_castps_si512(a),
-            _mm512_castps_si512(b),
-        ))
+        // SAFETY: the caller runs with AVX-512F and AVX2 enabled, as the `Width` contract
+        // requires of every lane operation; memory is reached only through references to
+        // whole lane arrays and rays.
+        unsafe {
+            _mm512_castsi512_ps(_mm512_xor_si512(
+                _mm512_castps_si512(a),
+                _mm512_castps_si512(b),
+            ))
+        }
     }
     #[inline(always)]
     unsafe fn abs(a: __m512) -> __m512 {
-        let sign = _mm512_set1_epi32(i32::MIN);
-        _mm512_castsi512_ps(_mm512_andnot_si512(sign, _mm512_castps_si512(a)))
+        // SAFETY: the caller runs with AVX-512F and AVX2 enabled, as the `Width` contract
+        // requires of every lane operation; memory is reached only through references to
+        // whole lane arrays and rays.
+        unsafe {
+            let sign = _mm512_set1_epi32(i32::MIN);
+            _mm512_castsi512_ps(_mm512_andnot_si512(sign, _mm512_castps_si512(a)))
+        }
     }
     #[inline(always)]
     unsafe fn copysign(m: __m512, s: __m512) -> __m512 {
-        let sign = _mm512_set1_epi32(i32::MIN);
-        _mm512_castsi512_ps(_mm512_or_si512(
-            _mm512_andnot_si512(sign, _mm512_castps_si512(m)),
-            _mm512_and_si512(sign, _mm512_castps_si512(s)),
-        ))
+        // SAFETY: the caller runs with AVX-512F and AVX2 enabled, as the `Width` contract
+        // requires of every lane operation; memory is reached only through references to
+        // whole lane arrays and rays.
+        unsafe {
+            let sign = _mm512_set1_epi32(i32::MIN);
+            _mm512_castsi512_ps(_mm512_or_si512(
+                _mm512_andnot_si512(sign, _mm512_castps_si512(m)),
+                _mm512_and_si512(sign, _mm512_castps_si512(s)),
+            ))
+        }
     }
     #[inline(always)]
     unsafe fn le(a: __m512, b: __m512) -> u32 {
-        u32::from(_mm512_cmp_ps_mask::<_CMP_LE_OQ>(a, b))
+        // SAFETY: the caller runs with AVX-512F and AVX2 enabled, as the `Width` contract
+        // requires of every lane operation; memory is reached only through references to
+        // whole lane arrays and rays.
+        unsafe { u32::from(_mm512_cmp_ps_mask::<_CMP_LE_OQ>(a, b)) }
     }
     #[inline(always)]
     unsafe fn lt(a: __m512, b: __m512) -> u32 {
-        u32::from(_mm512_cmp_ps_mask::<_CMP_LT_OQ>(a, b))
+        // SAFETY: the caller runs with AVX-512F and AVX2 enabled, as the `Width` contract
+        // requires of every lane operation; memory is reached only through references to
+        // whole lane arrays and rays.
+        unsafe { u32::from(_mm512_cmp_ps_mask::<_CMP_LT_OQ>(a, b)) }
     }
     #[inline(always)]
     unsafe fn gt(a: __m512, b: __m512) -> u32 {
-        u32::from(_mm512_cmp_ps_mask::<_CMP_GT_OQ>(a, b))
+        // SAFETY: the caller runs with AVX-512F and AVX2 enabled, as the `Width` contract
+        // requires of every lane operation; memory is reached only through references to
+        // whole lane arrays and rays.
+        unsafe { u32::from(_mm512_cmp_ps_mask::<_CMP_GT_OQ>(a, b)) }
     }
     #[inline(always)]
     unsafe fn ge(a: __m512, b: __m512) -> u32 {
-        u32::from(_mm512_cmp_ps_mask::<_CMP_GE_OQ>(a, b))
+        // SAFETY: the caller runs with AVX-512F and AVX2 enabled, as the `Width` contract
+        // requires of every lane operation; memory is reached only through references to
+        // whole lane arrays and rays.
+        unsafe { u32::from(_mm512_cmp_ps_mask::<_CMP_GE_OQ>(a, b)) }
     }
     #[inline(always)]
     unsafe fn select(mask: u32, no: __m512, yes: __m512) -> __m512 {
-        _mm512_mask_blend_ps(mask as u16, no, yes)
+        // SAFETY: the caller runs with AVX-512F and AVX2 enabled, as the `Width` contract
+        // requires of every lane operation; memory is reached only through references to
+        // whole lane arrays and rays.
+        unsafe { _mm512_mask_blend_ps(mask as u16, no, yes) }
     }
     #[inline(always)]
     unsafe fn load(p: &[f32; MAX_LANES]) -> __m512 {
-        _mm512_loadu_ps(p.as_ptr())
+        // SAFETY: the caller runs with AVX-512F and AVX2 enabled, as the `Width` contract
+        // requires of every lane operation; memory is reached only through references to
+        // whole lane arrays and rays.
+        unsafe { _mm512_loadu_ps(p.as_ptr()) }
     }
     #[inline(always)]
     unsafe fn store(p: &mut [f32; MAX_LANES], v: __m512) {
-        _mm512_storeu_ps(p.as_mut_ptr(), v)
+        // SAFETY: the caller runs with AVX-512F and AVX2 enabled, as the `Width` contract
+        // requires of every lane operation; memory is reached only through references to
+        // whole lane arrays and rays.
+        unsafe { _mm512_storeu_ps(p.as_mut_ptr(), v) }
     }
     #[cfg(test)]
     #[inline(always)]
     unsafe fn min_of(v: __m512, mask: u32) -> f32 {
-        _mm512_reduce_min_ps(X16::select(mask, _mm512_set1_ps(f32::INFINITY), v))
+        // SAFETY: the caller runs with AVX-512F and AVX2 enabled, as the `Width` contract
+        // requires of every lane operation; memory is reached only through references to
+        // whole lane arrays and rays.
+        unsafe { _mm512_reduce_min_ps(X16::select(mask, _mm512_set1_ps(f32::INFINITY), v)) }
     }
     #[inline(always)]
     unsafe fn max_of(v: __m512, mask: u32) -> f32 {
-        _mm512_reduce_max_ps(X16::select(mask, _mm512_set1_ps(f32::NEG_INFINITY), v))
+        // SAFETY: the caller runs with AVX-512F and AVX2 enabled, as the `Width` contract
+        // requires of every lane operation; memory is reached only through references to
+        // whole lane arrays and rays.
+        unsafe { _mm512_reduce_max_ps(X16::select(mask, _mm512_set1_ps(f32::NEG_INFINITY), v)) }
     }
     /// Up to sixteen minima at once: four rounds, each halving the lanes
     /// left of every input while pairing inputs into one register, 30
     /// shuffles where sixteen reductions one by one take 64.
     #[inline(always)]
     unsafe fn min_each<const K: usize>(v: [__m512; K], mask: u32) -> [f32; K] {
-        const { assert!(K <= 16) };
-        let inf = _mm512_set1_ps(f32::INFINITY);
-        let mut x = [inf; 16];
-        for k in 0..K {
-            x[k] = X16::select(mask, inf, v[k]);
-        }
-        // Round one: register k holds inputs 2k and 2k + 1, eight lanes
-        // each; round two: register m holds inputs 4m to 4m + 3, one
-        // 128-bit block each.
-        let mut c = [_mm512_setzero_ps(); 8];
-        for k in 0..8 {
-            let (a, b) = (x[2 * k], x[2 * k + 1]);
-            c[k] = _mm512_min_ps(
-                _mm512_shuffle_f32x4::<0x44>(a, b),
-                _mm512_shuffle_f32x4::<0xEE>(a, b),
+        // SAFETY: the caller runs with AVX-512F and AVX2 enabled, as the `Width` contract
+        // requires of every lane operation; memory is reached only through references to
+        // whole lane arrays and rays.
+        unsafe {
+            const { assert!(K <= 16) };
+            let inf = _mm512_set1_ps(f32::INFINITY);
+            let mut x = [inf; 16];
+            for k in 0..K {
+                x[k] = X16::select(mask, inf, v[k]);
+            }
+            // Round one: register k holds inputs 2k and 2k + 1, eight lanes
+            // each; round two: register m holds inputs 4m to 4m + 3, one
+            // 128-bit block each.
+            let mut c = [_mm512_setzero_ps(); 8];
+            for k in 0..8 {
+                let (a, b) = (x[2 * k], x[2 * k + 1]);
+                c[k] = _mm512_min_ps(
+                    _mm512_shuffle_f32x4::<0x44>(a, b),
+                    _mm512_shuffle_f32x4::<0xEE>(a, b),
+                );
+            }
+            let mut d = [_mm512_setzero_ps(); 4];
+            for m in 0..4 {
+                let (a, b) = (c[2 * m], c[2 * m + 1]);
+                d[m] = _mm512_min_ps(
+                    _mm512_shuffle_f32x4::<0x88>(a, b),
+                    _mm512_shuffle_f32x4::<0xDD>(a, b),
+                );
+            }
+            // Rounds three and four, within each block: block j ends up
+            // holding inputs j, 4 + j, 8 + j and 12 + j, one lane each.
+            let mut e = [_mm512_setzero_ps(); 2];
+            for h in 0..2 {
+                let (a, b) = (d[2 * h], d[2 * h + 1]);
+                e[h] = _mm512_min_ps(
+                    _mm512_shuffle_ps::<0x44>(a, b),
+                    _mm512_shuffle_ps::<0xEE>(a, b),
+                );
+            }
+            let f = _mm512_min_ps(
+                _mm512_shuffle_ps::<0x88>(e[0], e[1]),
+                _mm512_shuffle_ps::<0xDD>(e[0], e[1]),
             );
+            let mut lanes = [0.0f32; 16];
+            _mm512_storeu_ps(lanes.as_mut_ptr(), f);
+            let mut each = [0.0f32; K];
+            for k in 0..K {
+                each[k] = lanes[4 * (k % 4) + k / 4];
+            }
+            each
         }
-        let mut d = [_mm512_setzero_ps(); 4];
-        for m in 0..4 {
-            let (a, b) = (c[2 * m], c[2 * m + 1]);
-            d[m] = _mm512_min_ps(
-                _mm512_shuffle_f32x4::<0x88>(a, b),
-                _mm512_shuffle_f32x4::<0xDD>(a, b),
-            );
-        }
-        // Rounds three and four, within each block: block j ends up
-        // holding inputs j, 4 + j, 8 + j and 12 + j, one lane each.
-        let mut e = [_mm512_setzero_ps(); 2];
-        for h in 0..2 {
-            let (a, b) = (d[2 * h], d[2 * h + 1]);
-            e[h] = _mm512_min_ps(
-                _mm512_shuffle_ps::<0x44>(a, b),
-                _mm512_shuffle_ps::<0xEE>(a, b),
-            );
-        }
-        let f = _mm512_min_ps(
-            _mm512_shuffle_ps::<0x88>(e[0], e[1]),
-            _mm512_shuffle_ps::<0xDD>(e[0], e[1]),
-        );
-        let mut lanes = [0.0f32; 16];
-        _mm512_storeu_ps(lanes.as_mut_ptr(), f);
-        let mut each = [0.0f32; K];
-        for k in 0..K {
-            each[k] = lanes[4 * (k % 4) + k / 4];
-        }
-        each
     }
     #[inline(always)]
     unsafe fn fields(rays: &[Ray]) -> [__m512; 8] {
-        if let Some(full) = rays.first_chunk::<16>() {
-            return fields16(full);
+        // SAFETY: the caller runs with AVX-512F and AVX2 enabled, as the `Width` contract
+        // requires of every lane operation; memory is reached only through references to
+        // whole lane arrays and rays.
+        unsafe {
+            if let Some(full) = rays.first_chunk::<16>() {
+                return fields16(full);
+            }
+            let split = rays.len().min(8);
+            let lo = fields8(&rays[..split]);
+            // The second eight repeat the last ray when there are no more.
+            let hi = fields8(if rays.len() > 8 {
+                &rays[8..rays.len().min(16)]
+            } else {
+                &rays[split - 1..split]
+            });
+            let mut out = [_mm512_setzero_ps(); 8];
+            for f in 0..8 {
+                out[f] = _mm512_castpd_ps(_mm512_insertf64x4::<1>(
+                    _mm512_castpd256_pd512(_mm256_castps_pd(lo[f])),
+                    _mm256_castps_pd(hi[f]),
+                ));
+            }
+            out
         }
-        let split = rays.len().min(8);
-        let lo = fields8(&rays[..split]);
-        // The second eight repeat the last ray when there are no more.
-        let hi = fields8(if rays.len() > 8 {
-            &rays[8..rays.len().min(16)]
-        } else {
-            &rays[split - 1..split]
-        });
-        let mut out = [_mm512_setzero_ps(); 8];
-        for f in 0..8 {
-            out[f] = _mm512_castpd_ps(_mm512_insertf64x4::<1>(
-                _mm512_castpd256_pd512(_mm256_castps_pd(lo[f])),
-                _mm256_castps_pd(hi[f]),
-            ));
-        }
-        out
     }
 }
 
@@ -258,11 +344,16 @@ mod tests {
 
     #[target_feature(enable = "avx512f,avx2")]
     unsafe fn transposed(rays: &[Ray]) -> [[f32; MAX_LANES]; 8] {
-        X16::fields(rays).map(|v| {
-            let mut a = [0.0; MAX_LANES];
-            X16::store(&mut a, v);
-            a
-        })
+        // SAFETY: the caller runs with AVX-512F and AVX2 enabled, as the `Width` contract
+        // requires of every lane operation; memory is reached only through references to
+        // whole lane arrays and rays.
+        unsafe {
+            X16::fields(rays).map(|v| {
+                let mut a = [0.0; MAX_LANES];
+                X16::store(&mut a, v);
+                a
+            })
+        }
     }
 
     #[test]
@@ -289,11 +380,16 @@ mod tests {
 
     #[target_feature(enable = "avx512f,avx2")]
     unsafe fn minima(v: &[[f32; MAX_LANES]; 13], mask: u32) -> ([f32; 13], [f32; 13]) {
-        let vectors = v.map(|a| X16::load(&a));
-        (
-            X16::min_each(vectors, mask),
-            vectors.map(|x| X16::min_of(x, mask)),
-        )
+        // SAFETY: the caller runs with AVX-512F and AVX2 enabled, as the `Width` contract
+        // requires of every lane operation; memory is reached only through references to
+        // whole lane arrays and rays.
+        unsafe {
+            let vectors = v.map(|a| X16::load(&a));
+            (
+                X16::min_each(vectors, mask),
+                vectors.map(|x| X16::min_of(x, mask)),
+            )
+        }
     }
 
     #[test]
