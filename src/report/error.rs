@@ -352,12 +352,24 @@ pub fn headline(study: &ErrorStudy) -> String {
 
 /// Draws the study's plot into `out/speed_vs_error.svg`.
 pub fn plot(study: &ErrorStudy, out: &Path) -> Result<(), String> {
+    // One colour per backend, one line and marker per estimator (adaptive
+    // sampling counted as an estimator of its own).
+    fn index_of<K: PartialEq>(list: &mut Vec<K>, key: K) -> usize {
+        list.iter().position(|k| *k == key).unwrap_or_else(|| {
+            list.push(key);
+            list.len() - 1
+        })
+    }
+    let mut backends: Vec<&str> = Vec::new();
+    let mut estimators: Vec<(&str, bool)> = Vec::new();
     let series: Vec<Series> = study
         .series
         .iter()
         .map(|s| Series {
             name: s.name(),
             points: s.points.iter().map(|p| (p.seconds, p.rmse)).collect(),
+            colour: index_of(&mut backends, s.backend),
+            style: index_of(&mut estimators, (s.estimator, s.adaptive)),
         })
         .collect();
     loglog(

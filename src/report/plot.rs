@@ -3,12 +3,19 @@
 use std::path::Path;
 
 use plotters::coord::combinators::BindKeyPoints;
+use plotters::element::DashedPathElement;
 use plotters::prelude::*;
 
-/// One named line of points.
+/// One named line of points. Its colour tells one thing apart (a
+/// backend), its line and marker another (an estimator, a scene family),
+/// so that a plot of many series never gives two the same look.
 pub struct Series {
     pub name: String,
     pub points: Vec<(f64, f64)>,
+    /// The colour's index: series of one backend share it.
+    pub colour: usize,
+    /// The line's and marker's index: series of one estimator share it.
+    pub style: usize,
 }
 
 const COLOURS: [RGBColor; 8] = [
@@ -22,10 +29,76 @@ const COLOURS: [RGBColor; 8] = [
     RGBColor(23, 190, 207),
 ];
 
-/// Width of the plot and of the legend column beside it (the legend never
-/// covers data).
-const PLOT_SIZE: (u32, u32) = (880, 560);
-const LEGEND_WIDTH: u32 = 230;
+/// Size of the axes' area; the legend column is added to its right,
+/// as wide as its longest name needs (the legend never covers data and
+/// never runs off the canvas).
+const PLOT_SIZE: (u32, u32) = (650, 560);
+
+/// An upper bound on the width of one character of the legend's 14-pixel
+/// sans-serif text (an average letter is 7-8 pixels wide).
+pub const LEGEND_CHAR_WIDTH: u32 = 9;
+
+/// Where a legend's text starts, from the column's left edge.
+const LEGEND_TEXT_X: u32 = 48;
+
+/// The legend column's width for `series`.
+pub fn legend_width(series: &[Series]) -> u32 {
+    let longest = series
+        .iter()
+        .map(|s| s.name.chars().count())
+        .max()
+        .unwrap_or(0);
+    LEGEND_TEXT_X + LEGEND_CHAR_WIDTH * longest as u32 + 16
+}
+
+/// Line dash patterns (dash, gap in pixels; none for a solid line), one
+/// per style.
+const DASHES: [Option<(u32, u32)>; 4] = [None, Some((10, 5)), Some((3, 4)), Some((18, 6))];
+
+/// Draws `style`'s marker at `at` in `colour`.
+fn marker<DB: DrawingBackend>(
+    area: &DrawingArea<DB, plotters::coord::Shift>,
+    at: (i32, i32),
+    style: usize,
+    colour: RGBColor,
+) -> Result<(), Box<dyn std::error::Error>>
+where
+    DB::ErrorType: 'static,
+{
+    let (x, y) = at;
+    match style % 4 {
+        0 => area.draw(&Circle::new(at, 4, colour.filled()))?,
+        1 => area.draw(&TriangleMarker::new(at, 5, colour.filled()))?,
+        2 => area.draw(&Rectangle::new(
+            [(x - 4, y - 4), (x + 4, y + 4)],
+            colour.filled(),
+        ))?,
+        _ => area.draw(&Cross::new(at, 5, colour.stroke_width(2)))?,
+    }
+    Ok(())
+}
+
+/// Draws a line through `points` (pixel coordinates) in `style`'s dashes.
+fn line<DB: DrawingBackend>(
+    area: &DrawingArea<DB, plotters::coord::Shift>,
+    points: Vec<(i32, i32)>,
+    style: usize,
+    colour: RGBColor,
+) -> Result<(), Box<dyn std::error::Error>>
+where
+    DB::ErrorType: 'static,
+{
+    match DASHES[style % DASHES.len()] {
+        None => area.draw(&PathElement::new(points, colour.stroke_width(2)))?,
+        Some((dash, gap)) => area.draw(&DashedPathElement::new(
+            points,
+            dash,
+            gap,
+            colour.stroke_width(2),
+        ))?,
+    }
+    Ok(())
+}
 
 /// Draws `series` on log-log axes into an SVG file: grid lines only at the
 /// labelled ticks (1, 2 and 5 per decade, or fewer on wide ranges), the
@@ -52,10 +125,11 @@ pub fn loglog(
         return Err(format!("{}: nothing to plot", path.display()));
     }
     let (x0, x1, y0, y1) = (x0 / 1.3, x1 * 1.3, y0 / 1.3, y1 * 1.3);
+    let size = (PLOT_SIZE.0 + legend_width(series), PLOT_SIZE.1);
     let draw = || -> Result<(), Box<dyn std::error::Error>> {
-        let root = SVGBackend::new(path, PLOT_SIZE).into_drawing_area();
+        let root = SVGBackend::new(path, size).into_drawing_area();
         root.fill(&WHITE)?;
-        let (plot_area, legend_area) = root.split_horizontally(PLOT_SIZE.0 - LEGEND_WIDTH);
+        let (plot_area, legend_area) = root.split_horizontally(PLOT_SIZE.0);
         let mut chart = ChartBuilder::on(&plot_area)
             .caption(title, ("sans-serif", 22))
             .margin(16)
@@ -76,24 +150,28 @@ pub fn loglog(
             .light_line_style(TRANSPARENT)
             .draw()?;
         for (i, s) in series.iter().enumerate() {
-            let colour = COLOURS[i % COLOURS.len()];
+            let colour = COLOURS[s.colour % COLOURS.len()];
             let pts: Vec<(f64, f64)> = s
                 .points
                 .iter()
                 .copied()
                 .filter(|(x, y)| *x > 0.0 && *y > 0.0)
                 .collect();
-            chart.draw_series(LineSeries::new(pts.clone(), colour.stroke_width(2)))?;
-            chart.draw_series(pts.into_iter().map(|p| Circle::new(p, 3, colour.filled())))?;
+            // In the canvas's pixels (the axes' area starts at its left
+            // edge), so that lines and markers share one drawing routine
+            // with the legend.
+            let pixels: Vec<(i32, i32)> = pts.iter().map(|p| chart.backend_coord(p)).collect();
+            line(&root, pixels.clone(), s.style, colour)?;
+            for &p in &pixels {
+                marker(&root, p, s.style, colour)?;
+            }
             // The legend: one line per series, top down, beside the axes.
             let y = 70 + 24 * i as i32;
-            legend_area.draw(&PathElement::new(
-                vec![(8, y), (34, y)],
-                colour.stroke_width(3),
-            ))?;
+            line(&legend_area, vec![(8, y), (40, y)], s.style, colour)?;
+            marker(&legend_area, (24, y), s.style, colour)?;
             legend_area.draw(&Text::new(
                 s.name.clone(),
-                (42, y - 7),
+                (LEGEND_TEXT_X as i32, y - 7),
                 ("sans-serif", 14).into_font(),
             ))?;
         }
@@ -188,6 +266,65 @@ pub fn loglog_slope(points: &[(f64, f64)]) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Twelve series, three backends by four estimators, with the longest
+    /// names the report gives: every legend line lies inside the canvas,
+    /// and no two series look the same (colour, dashes and marker).
+    #[test]
+    fn legends_fit_the_canvas_and_every_series_looks_its_own() {
+        let estimators = ["hemisphere", "light sampling", "MIS", "adaptive (MIS)"];
+        let series: Vec<Series> = (0..3)
+            .flat_map(|b| {
+                estimators.iter().enumerate().map(move |(e, name)| Series {
+                    name: format!("embree{b}, cloud of bunnies, {name} (slope 0.55)"),
+                    points: vec![
+                        (1.0 + b as f64, 2.0 + e as f64),
+                        (10.0, 5.0 * (1 + e) as f64),
+                    ],
+                    colour: b,
+                    style: e,
+                })
+            })
+            .collect();
+        let path = std::env::temp_dir().join(format!("hybrid-plot-{}.svg", std::process::id()));
+        loglog(&path, "title", "x", "y", &series).expect("the plot draws");
+        let svg = std::fs::read_to_string(&path).expect("the plot is written");
+        let _ = std::fs::remove_file(&path);
+        let width: u32 = svg
+            .split("width=\"")
+            .nth(1)
+            .and_then(|w| w.split('"').next())
+            .and_then(|w| w.parse().ok())
+            .expect("the SVG names its width");
+        for s in &series {
+            let at = svg
+                .find(&s.name)
+                .unwrap_or_else(|| panic!("{} is in the legend", s.name));
+            let x: u32 = svg[..at]
+                .rsplit("x=\"")
+                .next()
+                .and_then(|x| x.split('"').next())
+                .and_then(|x| x.parse().ok())
+                .expect("the legend's text has an x");
+            let end = x + LEGEND_CHAR_WIDTH * s.name.chars().count() as u32;
+            assert!(
+                end <= width,
+                "{} ends at {end}, past the canvas's {width}",
+                s.name
+            );
+        }
+        let looks: std::collections::HashSet<_> = series
+            .iter()
+            .map(|s| (s.colour % COLOURS.len(), s.style % DASHES.len()))
+            .collect();
+        assert_eq!(looks.len(), series.len(), "two series look the same");
+        // Three colours and four dash patterns are drawn.
+        for c in &COLOURS[..3] {
+            let hex = format!("#{:02X}{:02X}{:02X}", c.0, c.1, c.2);
+            assert!(svg.to_uppercase().contains(&hex), "colour {hex} is drawn");
+        }
+        assert!(svg.matches("<path").count() + svg.matches("<polyline").count() >= 12);
+    }
 
     #[test]
     fn log_axes_get_labelled_ticks_inside_their_range() {

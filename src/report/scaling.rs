@@ -286,7 +286,8 @@ pub fn plot(s: &Scaling, out: &Path) -> Result<(), String> {
     let lines = |value: &dyn Fn(&ScalingRow, usize) -> f64| -> Vec<Series> {
         FAMILIES
             .iter()
-            .flat_map(|family| {
+            .enumerate()
+            .flat_map(|(f, family)| {
                 s.compared.iter().enumerate().map(move |(i, c)| {
                     let points: Vec<(f64, f64)> = s
                         .family(family)
@@ -299,6 +300,8 @@ pub fn plot(s: &Scaling, out: &Path) -> Result<(), String> {
                             loglog_slope(&points)
                         ),
                         points,
+                        colour: i,
+                        style: f,
                     }
                 })
             })
