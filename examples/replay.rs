@@ -54,7 +54,20 @@ fn main() -> ExitCode {
         }
     };
     let scene = scene_of(&triangles, &dir.display().to_string());
-    let native = match BackendConfig::NATIVE.with_threads(1).build(&scene) {
+    // REPLAY_LANES=8 or 16 asks for a packet width (16 without AVX-512:
+    // two AVX2 registers per value).
+    let lanes = std::env::var("REPLAY_LANES")
+        .ok()
+        .and_then(|l| l.parse().ok())
+        .unwrap_or(0);
+    let config = match BackendConfig::NATIVE {
+        BackendConfig::Native(o) => BackendConfig::Native(hybrid::accel::native::NativeOptions {
+            packet_lanes: lanes,
+            ..o
+        }),
+        other => other,
+    };
+    let native = match config.with_threads(1).build(&scene) {
         Ok(native) => native,
         Err(e) => {
             eprintln!("replay: {e}");

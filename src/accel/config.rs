@@ -114,6 +114,12 @@ impl BackendConfig {
         packet_lanes: 8,
         ..NativeOptions::DEFAULT
     });
+    /// The native BVH with packets of sixteen rays: AVX-512 lanes, or two
+    /// AVX2 registers per value where the CPU has no AVX-512.
+    pub const NATIVE_PACKETS16: BackendConfig = BackendConfig::Native(NativeOptions {
+        packet_lanes: 16,
+        ..NativeOptions::DEFAULT
+    });
     /// The native BVH built by median splits: the baseline the SAH is
     /// measured against.
     pub const NATIVE_MEDIAN: BackendConfig = BackendConfig::Native(NativeOptions {

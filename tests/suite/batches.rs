@@ -148,6 +148,9 @@ fn batch_queries_answer_as_single_rays_on_every_backend() {
         for config in [
             BackendConfig::NATIVE,
             BackendConfig::NATIVE_PACKETS8,
+            // Under HYBRID_ISA=avx2 (CI's ISA run): two AVX2 registers per
+            // value.
+            BackendConfig::NATIVE_PACKETS16,
             // No SIMD: the batch queries loop over single rays.
             BackendConfig::Native(NativeOptions {
                 simd: false,

@@ -10,7 +10,7 @@ use super::leaves::BlockLeaves;
 #[cfg(target_arch = "x86_64")]
 use super::leaves::BlockPacket;
 #[cfg(target_arch = "x86_64")]
-use super::traverse::packet::{self, Packet, PacketRays, Width, X16, X8};
+use super::traverse::packet::{self, Packet, PacketRays, Width, X8x2, X16, X8};
 use super::traverse::{self, BoxRay, BoxTest, Work};
 use super::triangle::TriangleBlock4;
 use super::{
@@ -45,12 +45,14 @@ pub(super) enum PacketKernels {
     /// Eight rays in AVX2 lanes.
     #[cfg(target_arch = "x86_64")]
     Avx2(Avx2),
+    /// Sixteen rays in two AVX2 registers per value.
+    #[cfg(target_arch = "x86_64")]
+    Avx2Wide(Avx2),
     /// None: every ray alone.
     None,
 }
 
 impl PacketKernels {
-    /// The widest kernels the CPU runs, unless `options` turn SIMD off.
     /// What a batch query runs, as the backend's stats name it.
     pub(super) fn describe(self) -> &'static str {
         match self {
@@ -62,10 +64,17 @@ impl PacketKernels {
             PacketKernels::Avx2(_) => {
                 "packets of 8 rays (AVX2) where 6 share an octant; other closest hits alone, other occlusion rays in streams of 64"
             }
+            #[cfg(target_arch = "x86_64")]
+            PacketKernels::Avx2Wide(_) => {
+                "packets of 16 rays (AVX2, two registers each) where 12 share an octant; other closest hits alone, other occlusion rays in streams of 64"
+            }
             PacketKernels::None => "single-ray loop (no AVX2)",
         }
     }
 
+    /// The widest kernels the CPU runs, unless `options` turn SIMD off or
+    /// ask for a width (`packet_lanes` 8 or 16; 16 without AVX-512 is two
+    /// AVX2 registers per value).
     pub(super) fn detect(options: &NativeOptions) -> PacketKernels {
         if !options.simd {
             return PacketKernels::None;
@@ -76,6 +85,9 @@ impl PacketKernels {
                 return PacketKernels::Avx512(wide);
             }
             if let Some(cpu) = Avx2::detect() {
+                if options.packet_lanes == 16 {
+                    return PacketKernels::Avx2Wide(cpu);
+                }
                 return PacketKernels::Avx2(cpu);
             }
         }
@@ -400,6 +412,24 @@ impl NativeBvh {
         unsafe { self.group::<X8, Q>(blocks, rays, out, counters) }
     }
 
+    /// [`Self::group`] with sixteen rays in two AVX2 registers per value.
+    ///
+    /// # Safety
+    /// As [`Self::group8`].
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma,popcnt,lzcnt,bmi1,bmi2")]
+    unsafe fn group8x2<Q: Query>(
+        &self,
+        blocks: &[TriangleBlock4],
+        rays: &[Ray],
+        out: &mut [Q::Answer],
+        counters: &mut TraceCounters,
+    ) {
+        // SAFETY: as in `group8`: AVX2 and FMA are enabled here, and the
+        // tree was checked by `Tree::new`.
+        unsafe { self.group::<X8x2, Q>(blocks, rays, out, counters) }
+    }
+
     /// [`Self::group`] with sixteen rays in AVX-512 lanes.
     ///
     /// # Safety
@@ -445,6 +475,7 @@ impl NativeBvh {
         let (group, lanes): (Group<Q>, usize) = match self.packets {
             PacketKernels::Avx512(_) => (Self::group16::<Q>, 16),
             PacketKernels::Avx2(_) => (Self::group8::<Q>, 8),
+            PacketKernels::Avx2Wide(_) => (Self::group8x2::<Q>, 16),
             PacketKernels::None => return None,
         };
         // Rays of groups that form no packet, traced together once there

@@ -38,12 +38,14 @@
 mod slab;
 mod width;
 mod x16;
+mod x8x2;
 
 use std::arch::x86_64::*;
 
 use self::slab::{interval, interval_slab, lane_slab, masked_t_max};
 pub use self::width::{Width, MAX_LANES, X8};
 pub use self::x16::X16;
+pub use self::x8x2::X8x2;
 use super::*;
 use crate::geom::Ray;
 

@@ -191,27 +191,46 @@ pub(super) unsafe fn lane_slab<W: Width, const ROBUST: bool>(
     // so every node reference read from it is in range.
     unsafe {
         let [near_r, near_c, far_r, far_c] = constants::<W, ROBUST>(r);
-        let plane = |row: usize| W::splat(node.planes[row][c]);
-        let distance = |p: W::V, r: W::V, c: W::V| {
-            if ROBUST {
-                W::mul(W::sub(p, c), r)
-            } else {
-                W::fmsub(p, r, c)
-            }
-        };
-        let near_t = |a: usize| distance(plane(rows[a].0), near_r[a], near_c[a]);
-        let far_t = |a: usize| distance(plane(rows[a].1), far_r[a], far_c[a]);
+        // Functions, not closures: a closure the compiler leaves out of
+        // line runs without the width's target features, and its
+        // intrinsics become calls (it did for two-register packets).
+        let mut near_t = [r.lanes.t_min; 3];
+        let mut far_t = [r.lanes.t_min; 3];
+        for a in 0..3 {
+            let (near_row, far_row) = rows[a];
+            near_t[a] = lane_distance::<W, ROBUST>(node.planes[near_row][c], near_r[a], near_c[a]);
+            far_t[a] = lane_distance::<W, ROBUST>(node.planes[far_row][c], far_r[a], far_c[a]);
+        }
         let near = W::max(
-            W::max(near_t(0), near_t(1)),
-            W::max(near_t(2), r.lanes.t_min),
+            W::max(near_t[0], near_t[1]),
+            W::max(near_t[2], r.lanes.t_min),
         );
-        let far = W::min(W::min(far_t(0), far_t(1)), far_t(2));
+        let far = W::min(W::min(far_t[0], far_t[1]), far_t[2]);
         let far = if ROBUST {
             W::mul(far, W::splat(BOX_FAR_SCALE))
         } else {
             far
         };
         W::le(near, W::min(far, t_max))
+    }
+}
+
+/// One slab end's distance for every lane: `(plane - c) * r` (robust form,
+/// `c` the origin, `r` the reciprocal) or `plane * r - c` rounded once
+/// (fast form, `c` the origin times the reciprocal).
+///
+/// # Safety
+/// As [`lane_slab`].
+#[inline(always)]
+unsafe fn lane_distance<W: Width, const ROBUST: bool>(plane: f32, r: W::V, c: W::V) -> W::V {
+    // SAFETY: the caller runs with the width's CPU features enabled.
+    unsafe {
+        let p = W::splat(plane);
+        if ROBUST {
+            W::mul(W::sub(p, c), r)
+        } else {
+            W::fmsub(p, r, c)
+        }
     }
 }
 
