@@ -17,6 +17,7 @@ macro_rules! say {
 mod bench;
 mod merge;
 mod parity;
+mod progress;
 mod render;
 mod report;
 mod series;

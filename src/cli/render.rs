@@ -1,13 +1,13 @@
 //! `hybrid render`: load, build the chosen backend, render, write, report.
 
 use crate::accel::native::cpu::Isa;
-use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use clap::Args;
 
 use super::choice;
+use super::progress::Bar;
 use crate::accel::embree::{BuildQuality, EmbreeOptions, EmbreeVersion};
 use crate::accel::native::build::BuildMethod;
 use crate::accel::native::triangle::TriangleMode;
@@ -17,7 +17,7 @@ use crate::choice::Choice;
 use crate::render::camera::CameraMode;
 use crate::render::film::{check_writable, rate_path, write_files, Exposure, Film, ToneMap};
 use crate::render::integrator::{Background, BounceView, DirectEstimator};
-use crate::render::{render, Progress, RenderOutput, RenderSettings};
+use crate::render::{render, RenderOutput, RenderSettings};
 use crate::scene::environment::{EnvSampling, Environment};
 use crate::scene::NormalMode;
 
@@ -308,67 +308,6 @@ impl RenderArgs {
     }
 }
 
-/// A progress bar on stderr counting camera samples (hidden when stderr
-/// is not a terminal). With adaptive sampling the total is not known in
-/// advance: it is re-estimated from the rows done, which the renderer
-/// takes in a scattered order.
-struct Bar {
-    bar: indicatif::ProgressBar,
-    rows: u64,
-    adaptive: bool,
-    done: std::sync::Mutex<(u64, u64)>,
-}
-
-impl Bar {
-    fn new(settings: &RenderSettings) -> Bar {
-        let (width, rows) = settings
-            .cell
-            .map_or((settings.width, settings.height), |c| (c.width, c.height));
-        let per_pixel = match settings.sample_range {
-            Some((a, b)) => b - a,
-            None => settings.samples,
-        };
-        let total = u64::from(width) * u64::from(rows) * u64::from(per_pixel);
-        let bar = indicatif::ProgressBar::with_draw_target(
-            Some(total),
-            indicatif::ProgressDrawTarget::stderr(),
-        );
-        if !std::io::stderr().is_terminal() {
-            bar.set_draw_target(indicatif::ProgressDrawTarget::hidden());
-        }
-        let adaptive = settings.adaptive.is_some();
-        let template = if adaptive {
-            "rendering [{bar:40}] {human_pos} of ~{human_len} samples (adaptive), {elapsed} elapsed, ~{eta} left"
-        } else {
-            "rendering [{bar:40}] {human_pos}/{human_len} samples, {elapsed} elapsed, ~{eta} left"
-        };
-        if let Ok(style) = indicatif::ProgressStyle::with_template(template) {
-            bar.set_style(style.progress_chars("=> "));
-        }
-        Bar {
-            bar,
-            rows: u64::from(rows),
-            adaptive,
-            done: std::sync::Mutex::new((0, 0)),
-        }
-    }
-}
-
-impl Progress for Bar {
-    fn row_done(&self, samples: u64) {
-        self.bar.inc(samples);
-        if self.adaptive {
-            let Ok(mut done) = self.done.lock() else {
-                return;
-            };
-            done.0 += 1;
-            done.1 += samples;
-            let (rows, taken) = *done;
-            self.bar.set_length(taken * self.rows / rows);
-        }
-    }
-}
-
 pub fn run(args: &RenderArgs) -> Result<(), String> {
     let settings = args.settings()?;
     for warning in args.warnings() {
@@ -543,7 +482,7 @@ pub fn render_with(args: &RenderArgs, settings: &RenderSettings) -> Result<Rende
 
     let bar = Bar::new(settings);
     let output = render(&scene, &accel, settings, &bar);
-    bar.bar.finish_and_clear();
+    bar.finish();
 
     Ok(Rendered {
         output,

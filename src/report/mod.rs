@@ -21,6 +21,7 @@ pub mod machine;
 pub mod paired;
 pub mod plot;
 pub mod scaling;
+pub mod scene_tables;
 pub mod scenes;
 pub mod sheet;
 pub mod table;
@@ -150,8 +151,8 @@ pub fn run(options: &ReportOptions, log: &mut dyn FnMut(&str)) -> Result<(), Str
     step("gallery rendered");
 
     let headline = headline::table(&per_scene);
-    let (scenes_md, scenes_json) = scenes::section(&per_scene);
-    let (packets_md, packets_json) = scenes::packets_section(&per_scene);
+    let (scenes_md, scenes_json) = scene_tables::section(&per_scene);
+    let (packets_md, packets_json) = scene_tables::packets_section(&per_scene);
     let brute_table = brute::table(&brute_rows);
     let answer = headline::answer(&per_scene);
     let mut md = format!(
