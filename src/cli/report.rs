@@ -21,7 +21,7 @@ pub struct ReportArgs {
     /// Threads for the all-threads figures (default: all cores).
     #[arg(short = 't', default_value_t = 0)]
     pub threads: usize,
-    /// Size of each gallery image (default: 80 60 with --quick, else 480
+    /// Size of each gallery image (default: 160 120 with --quick, else 480
     /// 360).
     #[arg(long, num_args = 2, value_names = ["W", "H"])]
     pub tile: Option<Vec<u32>>,

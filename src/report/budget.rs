@@ -72,8 +72,11 @@ impl Budget {
                 scaling_subdivisions: 3,
                 scaling_clouds: vec![2, 8, 32],
                 scaling_rays: 10_000,
-                gallery: (80, 60),
-                gallery_spp: 4,
+                // Tiles large enough to read and samples enough that a
+                // single bounce's dim image shows (80x60 at 4 spp was a
+                // sheet of noise); about ten seconds on two cores.
+                gallery: (160, 120),
+                gallery_spp: 16,
                 spp_series: vec![1, 4, 16, 64],
                 adaptive_gallery: (16, 0.1, 256),
                 estimator_gallery: (64, 16),
