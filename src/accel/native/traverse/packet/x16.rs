@@ -315,7 +315,7 @@ unsafe impl Width for X16 {
 }
 
 #[cfg(test)]
-mod tests {
+pub(super) mod tests {
     use super::*;
 
     fn avx512() -> bool {
@@ -327,8 +327,8 @@ mod tests {
     }
 
     /// Sixteen rays with distinct floats, field `f` of ray `i` being
-    /// `i + f / 8`.
-    fn rays() -> Vec<Ray> {
+    /// `i + f / 8` (the transpose tests of both sixteen-ray widths).
+    pub(in crate::accel::native::traverse::packet) fn rays() -> Vec<Ray> {
         (0..16)
             .map(|i| {
                 let x = |f: usize| i as f32 + f as f32 / 8.0;

@@ -222,17 +222,7 @@ mod tests {
             let (at_once, one_by_one) = unsafe { minima(&v, mask) };
             assert_eq!(at_once, one_by_one, "mask {mask:#06x}");
         }
-        let rays: Vec<Ray> = (0..16)
-            .map(|i| {
-                let x = |f: usize| i as f32 + f as f32 / 8.0;
-                Ray {
-                    origin: glam::Vec3::new(x(0), x(1), x(2)),
-                    dir: glam::Vec3::new(x(3), x(4), x(5)),
-                    t_min: x(6),
-                    t_max: x(7),
-                }
-            })
-            .collect();
+        let rays = super::super::x16::tests::rays();
         for n in [16, 11, 8, 3] {
             // SAFETY: as above.
             let lanes = unsafe { transposed(&rays[..n]) };
