@@ -365,7 +365,7 @@ fn simd_intrinsics_are_inlined_into_their_kernels() {
         .map(|l| format!("out of line: {l}"))
         .collect();
     let kernels = [
-        "NativeBvh::group8",
+        "NativeBvh::group_avx2",
         "NativeBvh::group16",
         "traverse::avx2::",
     ];

@@ -392,42 +392,24 @@ impl NativeBvh {
         }
     }
 
-    /// [`Self::group`] with eight rays in AVX2 lanes.
+    /// [`Self::group`] in AVX2 registers: eight rays ([`X8`]) or sixteen
+    /// in two registers per value ([`X8x2`]).
     ///
     /// # Safety
     /// The CPU has AVX2 (the caller holds the token); the triangle tree is
     /// not empty.
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2,fma,popcnt,lzcnt,bmi1,bmi2")]
-    unsafe fn group8<Q: Query>(
+    unsafe fn group_avx2<W: Width, Q: Query>(
         &self,
         blocks: &[TriangleBlock4],
         rays: &[Ray],
         out: &mut [Q::Answer],
         counters: &mut TraceCounters,
     ) {
-        // SAFETY: the caller upholds this kernel's contract: the width's CPU features are
-        // enabled (a detected token chose this code) and the tree was checked by
-        // `Tree::new`, so every node reference read from it is in range.
-        unsafe { self.group::<X8, Q>(blocks, rays, out, counters) }
-    }
-
-    /// [`Self::group`] with sixteen rays in two AVX2 registers per value.
-    ///
-    /// # Safety
-    /// As [`Self::group8`].
-    #[cfg(target_arch = "x86_64")]
-    #[target_feature(enable = "avx2,fma,popcnt,lzcnt,bmi1,bmi2")]
-    unsafe fn group8x2<Q: Query>(
-        &self,
-        blocks: &[TriangleBlock4],
-        rays: &[Ray],
-        out: &mut [Q::Answer],
-        counters: &mut TraceCounters,
-    ) {
-        // SAFETY: as in `group8`: AVX2 and FMA are enabled here, and the
-        // tree was checked by `Tree::new`.
-        unsafe { self.group::<X8x2, Q>(blocks, rays, out, counters) }
+        // SAFETY: AVX2 and FMA are enabled here, which is all either AVX2
+        // width needs, and the caller keeps the tree's contract.
+        unsafe { self.group::<W, Q>(blocks, rays, out, counters) }
     }
 
     /// [`Self::group`] with sixteen rays in AVX-512 lanes.
@@ -474,8 +456,8 @@ impl NativeBvh {
         );
         let (group, lanes): (Group<Q>, usize) = match self.packets {
             PacketKernels::Avx512(_) => (Self::group16::<Q>, 16),
-            PacketKernels::Avx2(_) => (Self::group8::<Q>, 8),
-            PacketKernels::Avx2Wide(_) => (Self::group8x2::<Q>, 16),
+            PacketKernels::Avx2(_) => (Self::group_avx2::<X8, Q>, 8),
+            PacketKernels::Avx2Wide(_) => (Self::group_avx2::<X8x2, Q>, 16),
             PacketKernels::None => return None,
         };
         // Rays of groups that form no packet, traced together once there
