@@ -17,7 +17,7 @@ use crate::choice::Choice;
 use crate::render::camera::CameraMode;
 use crate::render::film::{check_writable, rate_path, write_files, Exposure, Film, ToneMap};
 use crate::render::integrator::{Background, BounceView, DirectEstimator};
-use crate::render::{render, RenderOutput, RenderSettings};
+use crate::render::{render, Batching, RenderOutput, RenderSettings};
 use crate::scene::environment::{EnvSampling, Environment};
 use crate::scene::NormalMode;
 
@@ -91,11 +91,16 @@ pub struct RenderArgs {
     /// Seed: the same seed gives the same image for any thread count.
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
-    /// Trace camera rays and the first hits' shadow rays one at a time
-    /// instead of in packets (the image is the same; for comparing the
-    /// two).
+    /// Trace every ray one at a time, camera rays too, instead of in
+    /// batch queries (the image is the same; for comparing the two).
     #[arg(long)]
     pub no_packets: bool,
+    /// Advance the paths in waves, every bounce's rays and shadow rays
+    /// in batch queries, instead of batching camera rays only and walking
+    /// each path alone from its first hit (the image is the same; slower
+    /// where measured, docs/design.md).
+    #[arg(long, conflicts_with = "no_packets")]
+    pub waves: bool,
     /// Output image: .png (tone-mapped) or .exr (raw radiance).
     #[arg(short = 'f')]
     pub output: Option<PathBuf>,
@@ -461,14 +466,10 @@ pub fn render_with(args: &RenderArgs, settings: &RenderSettings) -> Result<Rende
     let accel = backend.build(&scene).map_err(|e| e.to_string())?;
     let stats = accel.stats();
     say!("{}", stats.describe());
-    say!(
-        "camera rays and their first hits' shadow rays: {}",
-        if settings.packets {
-            stats.batch_call
-        } else {
-            "one at a time (--no-packets)"
-        }
-    );
+    say!("rays: {}", settings.batching.describe());
+    if settings.batching != Batching::Alone {
+        say!("batch queries: {}", stats.batch_call);
+    }
     if !backend.suits(&scene) {
         super::report_line(
             "warning",

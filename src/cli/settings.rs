@@ -6,7 +6,7 @@ use super::render::RenderArgs;
 use crate::render::camera::ThinLens;
 use crate::render::camera_file::CourseCamera;
 use crate::render::integrator::{DirectEstimator, PathSettings, Shading};
-use crate::render::{Adaptive, Cell, RenderSettings};
+use crate::render::{Adaptive, Batching, Cell, RenderSettings};
 
 pub use crate::render::film::MAX_PIXELS;
 
@@ -120,7 +120,13 @@ impl RenderArgs {
             sample_range: self.sample_range_checked(samples)?,
             lens: self.lens_checked()?,
             course_camera: self.course_camera()?,
-            packets: !self.no_packets,
+            batching: if self.no_packets {
+                Batching::Alone
+            } else if self.waves {
+                Batching::Waves
+            } else {
+                Batching::Camera
+            },
         })
     }
 

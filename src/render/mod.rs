@@ -16,6 +16,7 @@ pub mod integrator;
 pub mod light;
 pub mod material;
 pub mod part;
+pub mod wave;
 
 use std::time::Instant;
 
@@ -26,7 +27,9 @@ use self::camera::{Camera, CameraMode, ThinLens};
 use self::camera_file::CourseCamera;
 use self::film::Film;
 use self::film::Origin;
-use self::integrator::{Begun, Integrator, Shading, ShadowTape};
+use self::integrator::{Integrator, Shading};
+pub use self::wave::Batching;
+use self::wave::Wave;
 use crate::accel::{Accel, TraceCounters};
 use crate::geom::sampling::{luminance, pixel_position, Rng};
 use crate::geom::Ray;
@@ -70,11 +73,9 @@ pub struct RenderSettings {
     pub lens: Option<ThinLens>,
     /// A camera file's camera (`-c`), instead of `camera`'s placement.
     pub course_camera: Option<CourseCamera>,
-    /// Trace each row's camera rays of a sample together, and then the
-    /// shadow rays of their first hits' direct lighting, through the
-    /// backend's batch queries (packets), instead of one at a time. The
-    /// image is the same either way.
-    pub packets: bool,
+    /// How rays reach the backend: camera rays batched, every bounce's
+    /// rays batched (waves), or one at a time. The image is the same either way.
+    pub batching: Batching,
 }
 
 impl RenderSettings {
@@ -110,7 +111,7 @@ impl Default for RenderSettings {
             sample_range: None,
             lens: None,
             course_camera: None,
-            packets: true,
+            batching: Batching::Camera,
         }
     }
 }
@@ -285,16 +286,20 @@ fn converged(a: &Adaptive, n: u32, s1: f64, s2: f64) -> bool {
     interval <= a.tolerance as f64 * mean
 }
 
+/// Paths a wave holds at most: rows' pixels times as many of their
+/// samples as fit. A paused path is a few hundred bytes, so a wave's state
+/// stays within a few MB per thread (docs/design.md, Waves).
+pub const WAVE_PATHS: usize = 4096;
+
 /// Row `y`'s pixels in `columns`: the sums of their samples (all of them,
 /// or the settings' sample range) in double precision into `sums`, and the
-/// number each took into `counts`. Sample index by sample index, the
-/// camera rays of the row's unfinished pixels are traced together through
-/// the backend's batch query (packets of neighbouring rays), then the
-/// shadow rays of their first vertices' direct lighting together, and
-/// each path goes on alone from there; with `settings.packets` off, every
-/// ray is traced alone. Each pixel takes its samples in order from its
-/// own random streams, and direct lighting sums the same terms in the same
-/// order either way, so the sums do not depend on the batching.
+/// number each took into `counts`. The paths of the row's unfinished
+/// pixels, for as many consecutive sample indices as fit in
+/// [`WAVE_PATHS`], are traced as one wave ([`Wave`], as
+/// `settings.batching` says). Each pixel takes its samples in order from
+/// its own random streams, its sums add them in sample order, and each
+/// path takes the same steps however it is batched, so the sums do not
+/// depend on the batching.
 #[allow(clippy::too_many_arguments)]
 fn render_row<A: Accel>(
     integrator: &Integrator<A>,
@@ -314,54 +319,42 @@ fn render_row<A: Accel>(
     counts.fill(0);
     let mut luminance_sums = vec![(0.0f64, 0.0f64); width];
     let mut active: Vec<usize> = (0..width).collect();
-    let (mut rays, mut streams) = (Vec::with_capacity(width), Vec::with_capacity(width));
-    let mut hits = vec![None; width];
-    let (mut tape, mut blocked, mut values) = (ShadowTape::default(), Vec::new(), Vec::new());
-    let mut begun = Vec::with_capacity(width);
+    let (mut rays, mut streams, mut values) = (Vec::new(), Vec::new(), Vec::new());
+    let mut wave = Wave::default();
     let mut done = first;
     while done < last && !active.is_empty() {
         let end = done.saturating_add(batch).min(last);
-        for i in done..end {
+        let per_wave = (WAVE_PATHS / active.len()).max(1) as u32;
+        let mut i = done;
+        while i < end {
+            let wave_end = i.saturating_add(per_wave).min(end);
             rays.clear();
             streams.clear();
-            for &p in &active {
-                let (ray, rng) = camera_sample(camera, settings, columns.start + p as u32, y, i);
-                rays.push(ray);
-                streams.push(rng);
-            }
-            let n = rays.len();
-            let accel = integrator.accel();
-            values.clear();
-            if settings.packets {
-                // Camera rays together; then every path pauses at its
-                // first vertex while that vertex's shadow rays are traced
-                // together too, and each goes on alone from there.
-                accel.closest_hits(&rays, &mut hits[..n], counters);
-                tape.clear();
-                begun.clear();
-                begun.resize_with(n, || Begun::Done(Vec3::ZERO));
-                for k in 0..n {
-                    let (ray, stream) = (&rays[k], &mut streams[k]);
-                    integrator.begin(ray, hits[k], stream, &mut tape, counters, &mut begun[k]);
-                }
-                blocked.clear();
-                blocked.resize(tape.rays().len(), false);
-                accel.occluded_all(tape.rays(), &mut blocked, counters);
-                for (b, stream) in begun.iter().zip(&mut streams) {
-                    values.push(integrator.finish(b, &tape, &blocked, stream, counters));
-                }
-            } else {
-                for (ray, stream) in rays.iter().zip(&mut streams) {
-                    let hit = accel.closest_hit(ray, counters);
-                    values.push(integrator.radiance_from(ray, hit, stream, counters));
+            for sample in i..wave_end {
+                for &p in &active {
+                    let x = columns.start + p as u32;
+                    let (ray, rng) = camera_sample(camera, settings, x, y, sample);
+                    rays.push(ray);
+                    streams.push(rng);
                 }
             }
-            for (&value, &p) in values.iter().zip(&active) {
-                sums[p] += value.as_dvec3();
-                let l = luminance(value) as f64;
-                luminance_sums[p].0 += l;
-                luminance_sums[p].1 += l * l;
+            wave.radiance(
+                integrator,
+                settings.batching,
+                &rays,
+                &mut streams,
+                counters,
+                &mut values,
+            );
+            for sample_values in values.chunks(active.len()) {
+                for (&value, &p) in sample_values.iter().zip(&active) {
+                    sums[p] += value.as_dvec3();
+                    let l = luminance(value) as f64;
+                    luminance_sums[p].0 += l;
+                    luminance_sums[p].1 += l * l;
+                }
             }
+            i = wave_end;
         }
         done = end;
         for &p in &active {

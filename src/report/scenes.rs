@@ -18,7 +18,7 @@ use crate::measure::{
     Measured,
 };
 use crate::render::integrator::{PathSettings, Shading};
-use crate::render::{render, RenderSettings, Silent};
+use crate::render::{render, Batching, RenderSettings, Silent};
 use crate::scene::Scene;
 
 /// One build variant: times on one thread and on all threads, and what
@@ -324,9 +324,9 @@ pub fn measure(
     };
     // Interleaved as the rays are: a frame takes a tenth of a second, so
     // back-to-back repeats of one backend caught the machine's drift. Each
-    // backend with packets (camera and first shadow rays), then alone.
+    // backend with camera rays in packets (the default), then alone.
     let alone = RenderSettings {
-        packets: false,
+        batching: Batching::Alone,
         ..settings.clone()
     };
     // A backend's two frames are neighbours in every round (forwards and

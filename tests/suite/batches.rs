@@ -16,7 +16,7 @@ use hybrid::parity::rays::{
 };
 use hybrid::render::camera::ThinLens;
 use hybrid::render::integrator::{DirectEstimator, PathSettings, Shading};
-use hybrid::render::{render, Adaptive, RenderSettings, Silent};
+use hybrid::render::{render, Adaptive, Batching, RenderSettings, Silent};
 use hybrid::scene::Scene;
 
 use crate::common::scene_or_skip;
@@ -165,16 +165,16 @@ fn batch_queries_answer_as_single_rays_on_every_backend() {
     }
 }
 
-/// Renders `scene` through `accel` with camera rays in packets or alone.
+/// Renders `scene` through `accel` with rays batched as `batching` says.
 fn frame(
     scene: &Scene,
     accel: &impl Accel,
     settings: &RenderSettings,
-    packets: bool,
+    batching: Batching,
     threads: usize,
 ) -> (Vec<glam::DVec3>, Vec<u32>, u64) {
     let settings = RenderSettings {
-        packets,
+        batching,
         threads,
         ..settings.clone()
     };
@@ -182,16 +182,18 @@ fn frame(
     (out.film.sums, out.film.samples, out.counters.rays)
 }
 
-/// A backend that counts the rays reaching its batch queries and its
-/// single occlusion query (and passes everything on to `inner`).
+/// A backend that counts the rays reaching each of its queries (and
+/// passes everything on to `inner`).
 struct Batches<'a, A> {
     inner: &'a A,
-    /// Rays through `closest_hits`, `occluded_all` and `occluded`.
-    counts: [AtomicU64; 3],
+    /// Rays through `closest_hits`, `occluded_all`, `occluded` and
+    /// `closest_hit`.
+    counts: [AtomicU64; 4],
 }
 
 impl<A: Accel> Accel for Batches<'_, A> {
     fn closest_hit(&self, ray: &Ray, counters: &mut TraceCounters) -> Option<Hit> {
+        self.counts[3].fetch_add(1, Ordering::Relaxed);
         self.inner.closest_hit(ray, counters)
     }
     fn occluded(&self, ray: &Ray, counters: &mut TraceCounters) -> bool {
@@ -211,13 +213,14 @@ impl<A: Accel> Accel for Batches<'_, A> {
     }
 }
 
-/// The renderer's packets change nothing: native gives the same bits with
-/// and without them (path tracing with each direct-lighting estimator,
-/// normals, adaptive sampling, a lens, any thread count) and traces as
-/// many rays; Embree, whose packet kernels may round `t` differently in
-/// the last bits, the same image within a hair.
+/// How the renderer batches its rays changes nothing: native gives the
+/// same bits alone, with camera rays batched and in waves (path tracing
+/// with each direct-lighting estimator, Russian roulette, `-o 0`, normals,
+/// adaptive sampling, a lens, any thread count) and traces as many rays;
+/// Embree, whose packet kernels may round `t` differently in the last
+/// bits, the same image within a hair.
 #[test]
-fn packets_leave_the_image_unchanged() {
+fn batching_leaves_the_image_unchanged() {
     let scene = crate::common::default_scene();
     let path = Shading::Path(PathSettings {
         light_samples: 1,
@@ -231,6 +234,10 @@ fn packets_leave_the_image_unchanged() {
         seed: 7,
         shading: path,
         ..RenderSettings::default()
+    };
+    let with_path = |p: PathSettings| RenderSettings {
+        shading: Shading::Path(p),
+        ..base.clone()
     };
     let variants = [
         base.clone(),
@@ -253,86 +260,94 @@ fn packets_leave_the_image_unchanged() {
             }),
             ..base.clone()
         },
-        RenderSettings {
-            shading: Shading::Path(PathSettings {
-                estimator: DirectEstimator::LightSampling,
-                light_samples: 3,
-                max_bounces: 2,
-                ..PathSettings::default()
-            }),
-            ..base.clone()
-        },
-        RenderSettings {
-            shading: Shading::Path(PathSettings {
-                estimator: DirectEstimator::Hemisphere,
-                light_samples: 2,
-                max_bounces: 2,
-                ..PathSettings::default()
-            }),
-            ..base.clone()
-        },
+        with_path(PathSettings {
+            estimator: DirectEstimator::LightSampling,
+            light_samples: 3,
+            max_bounces: 2,
+            ..PathSettings::default()
+        }),
+        with_path(PathSettings {
+            estimator: DirectEstimator::Hemisphere,
+            light_samples: 2,
+            max_bounces: 2,
+            ..PathSettings::default()
+        }),
+        with_path(PathSettings {
+            max_bounces: 6,
+            russian_roulette: Some(0.7),
+            ..PathSettings::default()
+        }),
+        with_path(PathSettings {
+            max_bounces: 3,
+            accumulate: false,
+            ..PathSettings::default()
+        }),
     ];
     let native = BackendConfig::NATIVE.build(&scene).expect("native builds");
     for (v, settings) in variants.iter().enumerate() {
-        let alone = frame(&scene, &native, settings, false, 1);
-        for threads in [1, 3] {
-            let packets = frame(&scene, &native, settings, true, threads);
-            assert!(
-                alone.0 == packets.0,
-                "variant {v}, {threads} threads: sums differ"
-            );
-            assert_eq!(alone.1, packets.1, "variant {v}: samples per pixel differ");
-            assert_eq!(alone.2, packets.2, "variant {v}: rays traced differ");
+        let alone = frame(&scene, &native, settings, Batching::Alone, 1);
+        for batching in [Batching::Camera, Batching::Waves] {
+            for threads in [1, 3] {
+                let batched = frame(&scene, &native, settings, batching, threads);
+                let what = format!("variant {v}, {batching:?}, {threads} threads");
+                assert!(alone.0 == batched.0, "{what}: sums differ");
+                assert_eq!(alone.1, batched.1, "{what}: samples per pixel differ");
+                assert_eq!(alone.2, batched.2, "{what}: rays traced differ");
+            }
         }
     }
-    // The rays went through the batch queries: every camera ray, and
-    // every shadow ray of the first vertices (with one bounce, all of
-    // them: exactly those a render without packets traces one by one).
+    // The rays went through the batch queries: every camera ray, and in
+    // waves every ray of every bounce, none alone.
     for estimator in [DirectEstimator::Mis, DirectEstimator::LightSampling] {
-        let settings = RenderSettings {
-            shading: Shading::Path(PathSettings {
-                estimator,
-                light_samples: 2,
-                max_bounces: 1,
-                ..PathSettings::default()
-            }),
-            ..base.clone()
-        };
-        let [batched, alone] = [true, false].map(|packets| {
+        let count = |settings: &RenderSettings, batching| {
             let counting = Batches {
                 inner: &native,
                 counts: Default::default(),
             };
-            frame(&scene, &counting, &settings, packets, 2);
+            frame(&scene, &counting, settings, batching, 2);
             counting.counts.map(AtomicU64::into_inner)
-        });
+        };
         let pixels = u64::from(base.width * base.height * base.samples);
-        // [closest_hits, occluded_all, occluded] rays.
-        assert_eq!(batched[0], pixels, "{estimator:?}: camera rays");
-        assert!(alone[2] > pixels / 4, "{estimator:?}: {alone:?}");
-        assert_eq!(batched[1..], [alone[2], 0], "{estimator:?}: shadow rays");
-        assert_eq!(alone[..2], [0, 0]);
+        let deep = with_path(PathSettings {
+            estimator,
+            max_bounces: 4,
+            ..PathSettings::default()
+        });
+        let [camera, alone] = [Batching::Camera, Batching::Alone].map(|b| count(&deep, b));
+        // [closest_hits, occluded_all, occluded, closest_hit] rays.
+        assert_eq!(alone[..2], [0, 0], "{estimator:?}: alone");
+        assert_eq!(camera[0], pixels, "{estimator:?}: camera rays");
+        assert_eq!(
+            [camera[1], camera[2], camera[3] + pixels],
+            [0, alone[2], alone[3]],
+            "{estimator:?}: camera batches"
+        );
+        let waves = count(&deep, Batching::Waves);
+        assert!(alone[3] > pixels + pixels / 4, "{estimator:?}: {alone:?}");
+        assert_eq!(waves, [alone[3], alone[2], 0, 0], "{estimator:?}: waves");
     }
     // Adaptive sampling did stop some pixels early, so the check above
-    // covered pixels leaving the packets.
-    let adaptive = frame(&scene, &native, &variants[2], true, 1);
+    // covered pixels leaving the waves.
+    let adaptive = frame(&scene, &native, &variants[2], Batching::Waves, 1);
     assert!(adaptive.1.iter().any(|&n| n < 32) && adaptive.1.contains(&32));
     for config in [BackendConfig::EMBREE, BackendConfig::EMBREE4] {
         let embree = config.build(&scene).expect("embree builds");
-        let alone = frame(&scene, &embree, &base, false, 1);
-        let packets = frame(&scene, &embree, &base, true, 2);
-        assert_eq!(alone.2, packets.2, "{}: rays traced differ", config.label());
-        let (mut diff, mut total) = (0.0, 0.0);
-        for (a, b) in alone.0.iter().zip(&packets.0) {
-            diff += (*a - *b).abs().element_sum();
-            total += a.element_sum();
+        let alone = frame(&scene, &embree, &base, Batching::Alone, 1);
+        for batching in [Batching::Camera, Batching::Waves] {
+            let batched = frame(&scene, &embree, &base, batching, 2);
+            let what = format!("{} {batching:?}", config.label());
+            assert_eq!(alone.2, batched.2, "{what}: rays traced differ");
+            let (mut diff, mut total) = (0.0, 0.0);
+            for (a, b) in alone.0.iter().zip(&batched.0) {
+                diff += (*a - *b).abs().element_sum();
+                total += a.element_sum();
+            }
+            assert!(
+                diff <= 1e-4 * total,
+                "{what}: batching moved the image by {}",
+                diff / total
+            );
         }
-        assert!(
-            diff <= 1e-4 * total,
-            "{}: packets moved the image by {}",
-            config.label(),
-            diff / total
-        );
     }
 }
 
@@ -444,19 +459,27 @@ fn packets_meet_ties_and_the_root_box_as_single_rays() {
         }
     }
     let dir = crate::common::scratch("packets-frame");
-    let frame = |packets: bool| {
-        let out = dir.join(if packets { "packets.exr" } else { "alone.exr" });
+    let frame = |flag: &str| {
+        let out = dir.join(format!("frame{flag}.exr"));
         let (out_arg, scene_arg) = (out.to_string_lossy(), path.to_string_lossy());
         let mut args = vec![
             "render", "-t", "2", "-r", "160", "120", "-s", "64", "-m", "5",
         ];
         args.extend(["-l", "1", "--seed", "3", "-f", &out_arg, &scene_arg]);
-        if !packets {
-            args.push("--no-packets");
+        if !flag.is_empty() {
+            args.push(flag);
         }
         let o = crate::common::hybrid(&args, &dir);
         assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
         std::fs::read(&out).unwrap()
     };
-    assert!(frame(true) == frame(false), "the frames differ");
+    let alone = frame("--no-packets");
+    assert!(
+        frame("") == alone,
+        "camera batches and rays alone give other frames"
+    );
+    assert!(
+        frame("--waves") == alone,
+        "waves and rays alone give other frames"
+    );
 }

@@ -1,0 +1,145 @@
+//! Many paths advanced together, bounce by bounce: each bounce's
+//! extension rays through one batch query, then every shadow ray of their
+//! vertices' direct lighting through another (breadth-first path tracing,
+//! as in MoonRay, Lee et al. 2017, and Áfra et al. 2016's ray streams).
+//! A path keeps its own random stream and takes the same steps in the
+//! same order as when it is walked alone ([`super::integrator::PathState`]),
+//! so the radiance of every path, and the image, does not depend on how
+//! paths are grouped.
+
+use glam::Vec3;
+
+use super::integrator::{Integrator, PathState, ShadowTape};
+use crate::accel::{Accel, TraceCounters};
+use crate::geom::sampling::Rng;
+use crate::geom::{Hit, Ray};
+
+/// How the renderer hands rays to the backend. The default is the one
+/// that measured fastest (docs/design.md, Batching in the renderer).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub enum Batching {
+    /// Camera rays in one batch query per wave; each path goes on alone
+    /// from its first hit.
+    #[default]
+    Camera,
+    /// Every ray of a wave of paths in batch queries, bounce by bounce
+    /// (`--waves`).
+    Waves,
+    /// Every ray alone (`--no-packets`).
+    Alone,
+}
+
+impl Batching {
+    /// What `hybrid render` says about it.
+    pub fn describe(self) -> &'static str {
+        match self {
+            Batching::Camera => "camera rays together, each path alone from its first hit",
+            Batching::Waves => "every bounce's rays of a wave of paths together (--waves)",
+            Batching::Alone => "one ray at a time (--no-packets)",
+        }
+    }
+}
+
+/// Paths traced together, and the lists they reuse from wave to wave.
+#[derive(Default)]
+pub struct Wave<'s> {
+    states: Vec<PathState<'s>>,
+    tape: ShadowTape,
+    blocked: Vec<bool>,
+    hits: Vec<Option<Hit>>,
+    /// The moving paths (indices into `states`) and their rays.
+    moving: Vec<u32>,
+    rays: Vec<Ray>,
+}
+
+impl<'s> Wave<'s> {
+    /// The radiance along each of `camera_rays`, path `k` drawing from
+    /// `streams[k]`, into `values` (cleared first).
+    pub fn radiance<A: Accel>(
+        &mut self,
+        integrator: &Integrator<'s, A>,
+        batching: Batching,
+        camera_rays: &[Ray],
+        streams: &mut [Rng],
+        counters: &mut TraceCounters,
+        values: &mut Vec<Vec3>,
+    ) {
+        values.clear();
+        let accel = integrator.accel();
+        let n = camera_rays.len();
+        self.hits.resize(n, None);
+        if batching == Batching::Alone {
+            for (ray, hit) in camera_rays.iter().zip(&mut self.hits) {
+                *hit = accel.closest_hit(ray, counters);
+            }
+        } else {
+            accel.closest_hits(camera_rays, &mut self.hits[..n], counters);
+        }
+        if batching != Batching::Waves {
+            for ((ray, stream), &hit) in camera_rays.iter().zip(streams).zip(&self.hits) {
+                values.push(integrator.radiance_from(ray, hit, stream, counters));
+            }
+            return;
+        }
+        self.tape.clear();
+        self.states.clear();
+        self.states.resize_with(n, || PathState::Done(Vec3::ZERO));
+        for (k, (state, stream)) in self.states.iter_mut().zip(&mut *streams).enumerate() {
+            let (ray, hit) = (&camera_rays[k], self.hits[k]);
+            integrator.begin(ray, hit, stream, &mut self.tape, counters, state);
+        }
+        self.answer_shadows(integrator, counters);
+        loop {
+            self.moving.clear();
+            self.rays.clear();
+            for (k, (state, stream)) in self.states.iter_mut().zip(&mut *streams).enumerate() {
+                integrator.go_on(state, &self.tape, &self.blocked, stream);
+                if let Some(ray) = state.ray() {
+                    self.moving.push(k as u32);
+                    self.rays.push(*ray);
+                }
+            }
+            if self.moving.is_empty() {
+                break;
+            }
+            let m = self.rays.len();
+            self.hits.resize(m, None);
+            accel.closest_hits(&self.rays, &mut self.hits[..m], counters);
+            self.tape.clear();
+            for (&k, &hit) in self.moving.iter().zip(&self.hits) {
+                let (state, stream) = (&mut self.states[k as usize], &mut streams[k as usize]);
+                integrator.arrive_at(state, hit, stream, &mut self.tape, counters);
+            }
+            self.answer_shadows(integrator, counters);
+        }
+        values.extend(self.states.iter().map(|s| s.value().unwrap_or(Vec3::ZERO)));
+    }
+
+    /// The tape's shadow rays through one batch query.
+    fn answer_shadows<A: Accel>(
+        &mut self,
+        integrator: &Integrator<'s, A>,
+        counters: &mut TraceCounters,
+    ) {
+        self.blocked.clear();
+        self.blocked.resize(self.tape.rays().len(), false);
+        integrator
+            .accel()
+            .occluded_all(self.tape.rays(), &mut self.blocked, counters);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A wave's path states, the largest part of its memory, stay within
+    /// the bound docs/design.md states (Waves): at most 256 bytes a path.
+    #[test]
+    fn a_wave_of_paths_stays_within_its_memory_bound() {
+        let per_path = std::mem::size_of::<PathState>();
+        eprintln!("{per_path} bytes per path state");
+        assert!(per_path <= 256, "{per_path} bytes per path state");
+        assert!(per_path * super::super::WAVE_PATHS <= 1 << 20);
+    }
+}
