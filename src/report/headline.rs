@@ -266,10 +266,116 @@ pub fn answer(results: &[SceneResult]) -> String {
     if parts.is_empty() {
         return String::new();
     }
+    let modes: Vec<ModeFrames> = results
+        .iter()
+        .flat_map(|r| {
+            r.compared.iter().enumerate().map(|(i, c)| ModeFrames {
+                scene: &r.scene,
+                backend: c.label(),
+                ratio: r.packet_frame[i],
+                batched: r.frame_seconds[i].median,
+                alone: r.frame_seconds_alone[i].median,
+            })
+        })
+        .collect();
     format!(
-        "**In short:** {} of that Embree's speed (greater than 1: native is faster; one thread unless said, over the {} scenes below, figures marked ⚠ included).\n\n",
+        "**In short:** {} of that Embree's speed (greater than 1: native is faster; one thread unless said, over the {} scenes below, figures marked ⚠ included). {}\n\n",
         parts.join("; "),
-        results.len()
+        results.len(),
+        own_modes(&modes)
+    )
+}
+
+/// One one-thread ray measure against an Embree: its ratio, and whether
+/// its interval spans two verdicts.
+struct Settling {
+    what: String,
+    ratio: f64,
+    unsure: bool,
+}
+
+/// Which conclusions survive the noise (issue 50): the measures whose
+/// whole interval reads one verdict, counted by verdict (those behind
+/// named), and the ones that do not, named, so that no one reads a
+/// verdict into them.
+fn survivors(measures: &[Settling], rival: &str) -> String {
+    if measures.is_empty() {
+        return String::new();
+    }
+    let settled: Vec<&Settling> = measures.iter().filter(|m| !m.unsure).collect();
+    let count = |v: Verdict| settled.iter().filter(|m| Verdict::of(m.ratio) == v).count();
+    let behind: Vec<String> = settled
+        .iter()
+        .filter(|m| Verdict::of(m.ratio) == Verdict::Behind)
+        .map(|m| format!("{} {:.2}x", m.what, m.ratio))
+        .collect();
+    let unsettled: Vec<String> = measures
+        .iter()
+        .filter(|m| m.unsure)
+        .map(|m| format!("{} {:.2}x", m.what, m.ratio))
+        .collect();
+    let mut text = format!(
+        "What survives the noise against {rival}: of {} one-thread ray measures, {} hold one verdict over their whole interval: native ahead on {}, even on {}, behind on {}{}. ",
+        measures.len(),
+        settled.len(),
+        count(Verdict::Ahead),
+        count(Verdict::Even),
+        count(Verdict::Behind),
+        if behind.is_empty() {
+            String::new()
+        } else {
+            format!(" ({})", behind.join(", "))
+        }
+    );
+    if !unsettled.is_empty() {
+        text += &format!(
+            "{} do not, and say neither ahead, even nor behind: {}. ",
+            unsettled.len(),
+            unsettled.join(", ")
+        );
+    }
+    text
+}
+
+/// One backend's frame on one scene in the renderer's two modes.
+struct ModeFrames<'a> {
+    scene: &'a str,
+    backend: String,
+    /// Batched over alone, round by round: `(lo, median, hi)`.
+    ratio: (f64, f64, f64),
+    /// Median seconds, camera rays batched and every ray alone.
+    batched: f64,
+    alone: f64,
+}
+
+/// Where a backend's frame is slower in the renderer's default mode
+/// (camera rays in batches) than with every ray alone, all the interval
+/// above 1: said with both frames, since a frame figure then blames the
+/// wrong thing (issue 50). Otherwise one clause that none is.
+fn own_modes(modes: &[ModeFrames]) -> String {
+    let losing: Vec<String> = modes
+        .iter()
+        .filter(|m| m.ratio.0 > 1.0)
+        .map(|m| {
+            format!(
+                "{} on {} ({:.2} s batched, {:.2} s alone: {:.3}x, interval {:.3}–{:.3})",
+                m.backend, m.scene, m.batched, m.alone, m.ratio.1, m.ratio.0, m.ratio.2
+            )
+        })
+        .collect();
+    if losing.is_empty() {
+        let medians: Vec<f64> = modes.iter().map(|m| m.ratio.1).collect();
+        if medians.is_empty() {
+            return String::new();
+        }
+        return format!(
+            "No backend's frame is surely slower with camera rays in batches (the renderer's default) than with every ray alone (batched over alone {}).",
+            range(&medians)
+        );
+    }
+    format!(
+        "A backend's own batching slows its frame, every round: {}; its frame figures above are in the default mode.",
+        losing.join("; ")
     )
 }
 
@@ -343,6 +449,17 @@ pub fn verdict(results: &[SceneResult], table: &Table) -> String {
                 (!lost.is_empty()).then(|| format!("{} ({})", r.scene, lost.join(", ")))
             })
             .collect();
+        let measures: Vec<Settling> = results
+            .iter()
+            .flat_map(|r| {
+                r.traces.iter().map(|t| Settling {
+                    what: format!("{} rays on {}", t.kind, r.scene),
+                    ratio: t.ratio(j),
+                    unsure: t.verdict_unsure(j),
+                })
+            })
+            .collect();
+        text += &survivors(&measures, &rival);
         if behind.is_empty() {
             text += &format!("On one thread native is at least {rival}'s equal (within 5%) on every scene and measure.\n\n");
         } else {
@@ -387,4 +504,78 @@ pub fn markdown(table: &Table, results: &[SceneResult]) -> String {
             t.markdown()
         ))
     )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn mode(scene: &str, backend: &str, ratio: (f64, f64, f64)) -> ModeFrames<'static> {
+        ModeFrames {
+            scene: Box::leak(scene.to_string().into_boxed_str()),
+            backend: backend.to_string(),
+            ratio,
+            batched: 2.0 * ratio.1,
+            alone: 2.0,
+        }
+    }
+
+    /// A mode that loses in every round is named with both frames; one
+    /// whose interval reaches below 1 is not.
+    #[test]
+    fn the_summary_names_a_backend_whose_batching_slows_its_frame() {
+        let modes = [
+            mode("CBbunny", "native", (1.02, 1.05, 1.08)),
+            mode("CBbunny", "embree4", (0.97, 1.01, 1.04)),
+            mode("maxplanck", "native", (0.95, 0.97, 0.99)),
+        ];
+        let text = own_modes(&modes);
+        assert!(
+            text.contains("native on CBbunny (2.10 s batched, 2.00 s alone"),
+            "{text}"
+        );
+        assert!(
+            !text.contains("embree4") && !text.contains("maxplanck"),
+            "{text}"
+        );
+        let calm = own_modes(&modes[1..]);
+        assert!(
+            calm.starts_with("No backend's frame is surely slower"),
+            "{calm}"
+        );
+    }
+
+    /// Settled measures are counted by verdict and those behind named;
+    /// unsettled ones are named apart, and never counted as a verdict.
+    #[test]
+    fn the_verdict_says_which_measures_survive_the_noise() {
+        let m = |what: &str, ratio: f64, unsure: bool| Settling {
+            what: what.into(),
+            ratio,
+            unsure,
+        };
+        let text = survivors(
+            &[
+                m("camera rays on A", 1.30, false),
+                m("shadow rays on A", 0.80, false),
+                m("light rays on A", 0.96, true),
+                m("bounce rays on B", 1.01, false),
+            ],
+            "embree4",
+        );
+        assert!(
+            text.contains("of 4 one-thread ray measures, 3 hold one verdict"),
+            "{text}"
+        );
+        assert!(
+            text.contains("ahead on 1, even on 1, behind on 1 (shadow rays on A 0.80x)"),
+            "{text}"
+        );
+        assert!(
+            text.contains(
+                "1 do not, and say neither ahead, even nor behind: light rays on A 0.96x"
+            ),
+            "{text}"
+        );
+    }
 }
