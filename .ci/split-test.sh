@@ -2,10 +2,13 @@
 # One frame split into parts and merged, checked byte for byte against the
 # single-process render: first fanned out over local processes
 # (scripts/split-render.sh --engine local), then as a job array on a
-# one-node Slurm cluster on localhost (munge, slurmctld, slurmd from
-# Debian's slurm-wlm; scripts/slurm-render.sh). Everything it starts is
-# stopped on exit. The Slurm half needs root (it installs packages and runs
-# the daemons); without root it is skipped with a message, except under CI.
+# two-node Slurm cluster on this machine (munge, slurmctld, and one slurmd
+# in each of two network namespaces with its own name and address, from
+# Debian's slurm-wlm; scripts/slurm-render.sh), the parts folder shared as
+# a cluster's filesystem would be. Everything it starts is stopped on exit.
+# The Slurm half needs root (it installs packages, makes the namespaces and
+# runs the daemons); without root it is skipped with a message, except
+# under CI.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 root="$(pwd)"
@@ -69,10 +72,15 @@ fi
 work="$(mktemp -d /tmp/hybrid-slurm.XXXXXX)"
 chmod 755 "$work"
 host="$(hostname -s)"
+# Two nodes, each a network namespace joined to this host by a veth pair:
+# node1 at 10.200.1.2, node2 at 10.200.2.2; slurmctld listens on the
+# host's end of node1's link (10.200.1.1), which node2 reaches through its
+# own link (a packet for any local address is delivered locally).
+nodes=(node1 node2)
 export SLURM_CONF="$work/slurm.conf"
 cat >"$SLURM_CONF" <<CONF
 ClusterName=hybridci
-SlurmctldHost=$host(127.0.0.1)
+SlurmctldHost=$host(10.200.1.1)
 SlurmUser=root
 AuthType=auth/munge
 ProctrackType=proctrack/linuxproc
@@ -83,53 +91,92 @@ SchedulerType=sched/builtin
 MpiDefault=none
 ReturnToService=2
 StateSaveLocation=$work/ctld
-SlurmdSpoolDir=$work/d
+SlurmdSpoolDir=$work/d-%n
 SlurmctldPidFile=$work/slurmctld.pid
-SlurmdPidFile=$work/slurmd.pid
+SlurmdPidFile=$work/slurmd-%n.pid
 SlurmctldLogFile=$work/slurmctld.log
-SlurmdLogFile=$work/slurmd.log
+SlurmdLogFile=$work/slurmd-%n.log
 JobCompType=jobcomp/none
 JobAcctGatherType=jobacct_gather/none
 AccountingStorageType=accounting_storage/none
-NodeName=$host NodeAddr=127.0.0.1 CPUs=$(nproc) State=UNKNOWN
+NodeName=node1 NodeAddr=10.200.1.2 CPUs=$(nproc) State=UNKNOWN
+NodeName=node2 NodeAddr=10.200.2.2 CPUs=$(nproc) State=UNKNOWN
 PartitionName=ci Nodes=ALL Default=YES MaxTime=INFINITE State=UP
 CONF
-mkdir -p "$work/ctld" "$work/d" /run/munge
+mkdir -p "$work/ctld" /run/munge
 chown munge:munge /run/munge
 
 stop() {
-  for pid in "$work/slurmd.pid" "$work/slurmctld.pid"; do
+  for pid in "$work"/slurmd-*.pid "$work/slurmctld.pid"; do
     [ -s "$pid" ] && kill "$(cat "$pid")" 2>/dev/null || true
   done
   [ -n "${munge_pid:-}" ] && kill "$munge_pid" 2>/dev/null || true
   sleep 1
+  for k in 1 2; do ip netns del "hyb-node$k" 2>/dev/null || true; done
   rm -rf "$work"
 }
 trap stop EXIT
+
+for k in 1 2; do
+  ns="hyb-node$k"
+  ip netns del "$ns" 2>/dev/null || true
+  ip netns add "$ns"
+  ip link add "hyb-h$k" type veth peer name "hyb-n$k"
+  ip link set "hyb-n$k" netns "$ns"
+  ip addr add "10.200.$k.1/24" dev "hyb-h$k"
+  ip link set "hyb-h$k" up
+  ip -n "$ns" addr add "10.200.$k.2/24" dev "hyb-n$k"
+  ip -n "$ns" link set "hyb-n$k" up
+  ip -n "$ns" link set lo up
+  ip -n "$ns" route add default via "10.200.$k.1"
+done
 
 runuser -u munge -- /usr/sbin/munged --foreground >"$work/munged.log" 2>&1 &
 munge_pid=$!
 for _ in $(seq 50); do munge -n </dev/null >/dev/null 2>&1 && break; sleep 0.1; done
 /usr/sbin/slurmctld -f "$SLURM_CONF"
-/usr/sbin/slurmd -f "$SLURM_CONF"
-for _ in $(seq 100); do
-  state="$(sinfo -h -o %T 2>/dev/null || true)"
-  [ "$state" = idle ] && break
+# nsenter joins only the network namespace: `ip netns exec` would also
+# remount /sys, without the cgroup tree slurmd needs.
+for k in 1 2; do
+  mkdir -p "$work/d-node$k"
+  nsenter --net="/run/netns/hyb-node$k" /usr/sbin/slurmd -f "$SLURM_CONF" -N "node$k" || {
+    echo "split-test: slurmd of node$k did not start" >&2
+    tail -n 20 "$work/slurmd-node$k.log" >&2 || true
+    exit 1
+  }
+done
+for _ in $(seq 150); do
+  state="$(sinfo -h -N -o '%N %T' 2>/dev/null | sort | tr '\n' ' ' || true)"
+  [ "$state" = "node1 idle node2 idle " ] && break
   sleep 0.2
 done
-if [ "$state" != idle ]; then
-  echo "split-test: the node did not come up (state '$state')" >&2
-  tail -n 20 "$work/slurmctld.log" "$work/slurmd.log" >&2 || true
+if [ "$state" != "node1 idle node2 idle " ]; then
+  echo "split-test: the nodes did not come up (state '$state')" >&2
+  tail -n 20 "$work/slurmctld.log" "$work"/slurmd-*.log >&2 || true
   exit 1
 fi
-echo "split-test: one-node cluster up ($host, $(nproc) CPUs)"
+echo "split-test: two-node cluster up (node1 at 10.200.1.2, node2 at 10.200.2.2, $(nproc) CPUs each)"
 
 "$hybrid" render "${args[@]}" -f "$work/single.png" >/dev/null
 start=$(date +%s%N)
 bash scripts/slurm-render.sh -n 6 -f "$work/slurm.png" --parts "$work/parts" -- "${args[@]}"
 echo "split-test: job array and merge took $(( ($(date +%s%N) - start) / 1000000 )) ms"
 cmp "$work/single.png" "$work/slurm.png"
-echo "split-test: the merged image of 6 Slurm tasks is identical to the single render"
+# Where the tasks ran (each task's log names its node), and a merge on a
+# node of its own, of parts written on both.
+ran="$(grep -h '^split-render: band' "$work"/parts/slurm-*.out | sort)"
+echo "$ran" | sed 's/^/split-test: /'
+for node in "${nodes[@]}"; do
+  echo "$ran" | grep -q "on $node\$" || { echo "split-test: no task ran on $node" >&2; exit 1; }
+done
+parts=()
+for k in $(seq 0 5); do parts+=("$work/parts/part-$k.exr"); done
+srun -N 1 -w node2 "$hybrid" merge -f "$work/merged-on-node2.exr" "${parts[@]}" >/dev/null
+"$hybrid" merge -f "$work/merged-here.exr" "${parts[@]}" >/dev/null
+cmp "$work/merged-here.exr" "$work/merged-on-node2.exr"
+"$hybrid" render "${args[@]}" -f "$work/single.exr" >/dev/null
+cmp "$work/single.exr" "$work/merged-here.exr"
+echo "split-test: the merged PNG of 6 Slurm tasks on two nodes, and the EXR merged on node2, are the single render's bytes"
 
 # A task killed mid-run: band 2's first process holds with its part half
 # written (HYBRID_TEST_HOLD_WRITE), is killed with its task (exit 137), and

@@ -89,7 +89,7 @@ case "$engine" in
       # shellcheck disable=SC2086
       sbatch --parsable --wait --array="$todo" ${SBATCH_ARGS:-} \
         --job-name=hybrid-render --output="$parts/slurm-%A_%a.out" \
-        --wrap "${cmd} --part \${SLURM_ARRAY_TASK_ID}/$n -f $parts/part-\${SLURM_ARRAY_TASK_ID}.exr" >/dev/null ||
+        --wrap "echo split-render: band \${SLURM_ARRAY_TASK_ID} of $n on \${SLURMD_NODENAME}; ${cmd} --part \${SLURM_ARRAY_TASK_ID}/$n -f $parts/part-\${SLURM_ARRAY_TASK_ID}.exr" >/dev/null ||
         echo "split-render: bands $todo: the job array reported a failure (try $((try + 1)) of $((retries + 1)))" >&2
     done
     todo="$(missing | paste -sd, -)"
