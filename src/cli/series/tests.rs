@@ -1,5 +1,6 @@
 //! The series' parsing, planning and tables.
 
+use super::vary::parse_vary;
 use super::*;
 
 #[test]
