@@ -6,6 +6,7 @@
 //! (`docs/rays.md` has a C reader) measures the same rays.
 
 pub mod file;
+pub mod waves;
 
 use std::path::{Path, PathBuf};
 
@@ -86,6 +87,15 @@ fn write_export(
         }
         let name = file_name(set.kind);
         file::write_rays(&dir.join(&name), set.query, &flat).map_err(|e| e.to_string())?;
+        sets.push((name, flat.len()));
+    }
+    for (kind, query, rays) in waves::wave_sets(triangles_only, finder, n) {
+        let flat: Vec<FlatRay> = rays.iter().map(Ray::flat).collect();
+        if flat.is_empty() {
+            continue;
+        }
+        let name = file_name(kind);
+        file::write_rays(&dir.join(&name), query, &flat).map_err(|e| e.to_string())?;
         sets.push((name, flat.len()));
     }
     Ok((corners.len(), sets))
@@ -213,7 +223,7 @@ pub fn replay(dir: &Path, settle: Settle, batched: bool) -> Result<Vec<PairedRow
         .collect::<Result<Vec<_>, crate::accel::AccelError>>()
         .map_err(|e| e.to_string())?;
     let mut rows = Vec::new();
-    for kind in RAY_KINDS {
+    for kind in RAY_KINDS.into_iter().chain(waves::WAVE_KINDS) {
         let path = dir.join(file_name(kind));
         if !path.exists() {
             continue;

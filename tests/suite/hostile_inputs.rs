@@ -411,18 +411,29 @@ fn an_exported_set_replays_with_the_same_hits_on_every_backend() {
         "shadow",
         "bounce",
         "light",
+        "wave_bounce",
+        "wave_shadow",
     ] {
         let bytes = std::fs::read(dir.join("set").join(format!("{kind}.rays"))).unwrap();
         assert_eq!(&bytes[..8], b"HYBRAYS1", "{kind}");
         let count = u64::from_le_bytes(bytes[16..24].try_into().unwrap());
         assert_eq!(bytes.len() as u64, 24 + 32 * count, "{kind}");
+        // A render's waves give at most the rays asked for.
+        assert!((1..=4000).contains(&count), "{kind}: {count} rays");
     }
     let o = run(
         &dir,
         &["bench", "set", "--max-rounds", "3", "--min-rounds", "3"],
     );
     assert_eq!(o.code, Some(0), "{}", o.describe());
-    for kind in ["| camera |", "| camera rows |", "| light |", "native / "] {
+    for kind in [
+        "| camera |",
+        "| camera rows |",
+        "| light |",
+        "| wave bounce |",
+        "| wave shadow |",
+        "native / ",
+    ] {
         assert!(
             o.stdout.contains(kind),
             "bench lacks '{kind}': {}",
