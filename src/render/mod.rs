@@ -286,8 +286,9 @@ fn converged(a: &Adaptive, n: u32, s1: f64, s2: f64) -> bool {
     interval <= a.tolerance as f64 * mean
 }
 
-/// Paths a wave holds at most: rows' pixels times as many of their
-/// samples as fit. A paused path is a few hundred bytes, so a wave's state
+/// Paths a wave holds at most: a row's pixels times as many of their
+/// samples as fit, and at least one sample of the row (a row wider than
+/// this is one wave per sample). A paused path is a few hundred bytes, so a wave's state
 /// stays within a few MB per thread (docs/design.md, Waves).
 pub const WAVE_PATHS: usize = 4096;
 
