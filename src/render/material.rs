@@ -39,6 +39,16 @@ pub fn is_specular(m: &Material) -> bool {
     )
 }
 
+/// Whether the integrator turns the shading frame to face the view where
+/// a smooth normal tilts away from it (seen near a coarse mesh's
+/// silhouette): a microfacet lobe and a mirror are defined about `wo`
+/// and need it above the shading plane. A Lambertian surface does not
+/// depend on `wo`: it keeps the smooth surface's outer side, so it is lit
+/// exactly where the smooth normal faces the light, at the silhouette too.
+pub fn turns_to_view(m: &Material) -> bool {
+    !matches!(m, Material::Lambertian { .. })
+}
+
 /// Radiance emitted towards a direction whose cosine with the geometric
 /// normal is `cos` (front side only).
 pub fn emitted(m: &Material, cos: f32) -> Vec3 {
@@ -61,14 +71,22 @@ fn same_side(wo: Vec3, wi: Vec3) -> Option<(Vec3, Vec3)> {
     Some((flip(wo), flip(wi)))
 }
 
-/// BSDF value `f(wo, wi)` for non-delta materials (zero for delta ones),
-/// for any pair the geometric normal lets through.
+/// BSDF value `f(wo, wi)` for non-delta materials (zero for delta ones).
+/// Every such material reflects only: a Lambertian surface into the
+/// shading frame's upper side whatever `wo` (see [`turns_to_view`]), a
+/// microfacet one into `wo`'s side of the shading plane. Directions on the
+/// other side get zero, whichever side of the facet they are on. (Counting
+/// them, as these materials once did where the geometric normal let them
+/// through, lit the facets beyond a coarse mesh's smooth terminator: a
+/// staircase of lit triangles.)
 pub fn eval(m: &Material, wo: Vec3, wi: Vec3) -> Vec3 {
-    if wo.z == 0.0 || wi.z == 0.0 {
+    if let Material::Lambertian { albedo, .. } = *m {
+        return if wi.z > 0.0 { albedo * FRAC_1_PI } else { Vec3::ZERO };
+    }
+    if wo.z * wi.z <= 0.0 {
         return Vec3::ZERO;
     }
     match *m {
-        Material::Lambertian { albedo, .. } => albedo * FRAC_1_PI,
         Material::Microfacet { alpha, eta, k } => {
             let h = (wo + wi).normalize_or_zero();
             if h == Vec3::ZERO {
@@ -85,11 +103,13 @@ pub fn eval(m: &Material, wo: Vec3, wi: Vec3) -> Vec3 {
 /// The density (solid angle) with which [`sample`] draws `wi` for `wo`;
 /// zero for delta materials and for directions it never draws.
 pub fn pdf(m: &Material, wo: Vec3, wi: Vec3) -> f32 {
+    if let Material::Lambertian { .. } = *m {
+        return wi.z.max(0.0) * FRAC_1_PI;
+    }
     let Some((wo, wi)) = same_side(wo, wi) else {
         return 0.0;
     };
     match *m {
-        Material::Lambertian { .. } => wi.z * FRAC_1_PI,
         Material::Microfacet { alpha, .. } => {
             let h = (wo + wi).normalize_or_zero();
             if h == Vec3::ZERO {
@@ -111,15 +131,12 @@ pub fn sample(m: &Material, wo: Vec3, rng: &mut Rng) -> Option<BsdfSample> {
     let to_side = |w: Vec3| Vec3::new(w.x, w.y, w.z * side);
     match *m {
         Material::Lambertian { albedo, .. } => {
-            if wo.z == 0.0 {
-                return None;
-            }
             let local = cosine_hemisphere(u, v);
             if local.z <= 0.0 {
                 return None;
             }
             Some(BsdfSample {
-                wi: to_side(local),
+                wi: local,
                 weight: albedo,
                 pdf: local.z * FRAC_1_PI,
                 specular: false,

@@ -89,6 +89,50 @@ pub fn icosphere(level: u32) -> (Vec<Vec3>, Vec<[u32; 3]>) {
     (positions, tris)
 }
 
+/// A unit "quad ball": each face of a cube split into `n x n` quads, its
+/// vertices pushed onto the unit sphere, and each quad split into two
+/// triangles along one diagonal (6 * 2 n^2 triangles, vertices shared,
+/// wound outward), as modelling tools make them. Its triangles differ in
+/// shape and size (the cube's corners squeeze them), unlike an icosphere's.
+pub fn quad_ball(n: u32) -> (Vec<Vec3>, Vec<[u32; 3]>) {
+    let mut index = std::collections::HashMap::new();
+    let mut positions = Vec::new();
+    let mut tris = Vec::with_capacity((12 * n * n) as usize);
+    // Each face: its normal axis and side, and two in-face axes whose
+    // cross product points out.
+    let faces: [(usize, f32, usize, usize); 6] = [
+        (0, 1.0, 1, 2),
+        (0, -1.0, 2, 1),
+        (1, 1.0, 2, 0),
+        (1, -1.0, 0, 2),
+        (2, 1.0, 0, 1),
+        (2, -1.0, 1, 0),
+    ];
+    let n = n as i32;
+    for (axis, side, a, b) in faces {
+        let mut vertex = |i: i32, j: i32| -> u32 {
+            // Integer coordinates on the cube [-n, n]^3 name a vertex once.
+            let mut key = [0i32; 3];
+            key[axis] = side as i32 * n;
+            key[a] = 2 * i - n;
+            key[b] = 2 * j - n;
+            *index.entry(key).or_insert_with(|| {
+                let p = Vec3::new(key[0] as f32, key[1] as f32, key[2] as f32);
+                positions.push(p.normalize());
+                positions.len() as u32 - 1
+            })
+        };
+        for j in 0..n {
+            for i in 0..n {
+                let q = [vertex(i, j), vertex(i + 1, j), vertex(i + 1, j + 1), vertex(i, j + 1)];
+                tris.push([q[0], q[1], q[2]]);
+                tris.push([q[0], q[2], q[3]]);
+            }
+        }
+    }
+    (positions, tris)
+}
+
 /// Every triangle split into four at its edges' midpoints (shared edges
 /// share their midpoint): four times the triangles, the same surface.
 pub fn subdivide(positions: &[Vec3], tris: &[[u32; 3]]) -> (Vec<Vec3>, Vec<[u32; 3]>) {

@@ -136,6 +136,18 @@ pub fn direct_light_at_pixel_centres<A: hybrid::accel::Accel>(
     estimator: hybrid::render::integrator::DirectEstimator,
     size: u32,
 ) -> (hybrid::render::film::Film, hybrid::render::camera::Camera) {
+    direct_light_sampled_at_pixel_centres(scene, accel, estimator, size, 1)
+}
+
+/// [`direct_light_at_pixel_centres`] with `light_samples` samples of
+/// each area or ambient light (`-l`) per pixel.
+pub fn direct_light_sampled_at_pixel_centres<A: hybrid::accel::Accel>(
+    scene: &Scene,
+    accel: &A,
+    estimator: hybrid::render::integrator::DirectEstimator,
+    size: u32,
+    light_samples: u32,
+) -> (hybrid::render::film::Film, hybrid::render::camera::Camera) {
     use hybrid::render::integrator::{PathSettings, Shading};
     use hybrid::render::{render, RenderSettings, Silent};
     let settings = RenderSettings {
@@ -144,6 +156,7 @@ pub fn direct_light_at_pixel_centres<A: hybrid::accel::Accel>(
         samples: 1,
         shading: Shading::Path(PathSettings {
             estimator,
+            light_samples,
             max_bounces: 1,
             ..PathSettings::default()
         }),

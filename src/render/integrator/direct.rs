@@ -82,7 +82,7 @@ impl<A: Accel> Integrator<'_, A> {
                         None => around.to_world(uniform_hemisphere(a, b)),
                     };
                     let wi_local = v.frame.to_local(wi);
-                    if wi.dot(v.at.ng) <= 0.0 && wi_local.z <= 0.0 {
+                    if wi_local.z <= 0.0 || (wi.dot(v.at.ng) <= 0.0 && v.lifted.is_none()) {
                         continue;
                     }
                     let f = material::eval(v.m, v.wo, wi_local);
@@ -138,14 +138,15 @@ impl<A: Accel> Integrator<'_, A> {
         weighting: Option<f32>,
         sink: &mut impl Shadows,
     ) {
-        // The geometric normal decides which side is lit, but where the
-        // point lifts onto the smooth surface (a coarse mesh's
-        // terminator) light in front of the shading normal reaches it
-        // too, tested from the lifted point: the facet does not shadow
-        // what the smooth surface it stands for would see.
+        // Light counts only in front of the shading normal (the smooth
+        // surface's terminator ends it, not the facet's), and in front of
+        // the facet too unless the point lifts onto the smooth surface (a
+        // coarse mesh's terminator): then light from behind the facet
+        // reaches it, tested from the lifted point, since the facet does
+        // not shadow what the smooth surface it stands for would see.
         let wi_local = v.frame.to_local(ls.wi);
         let in_front = ls.wi.dot(v.at.ng) > 0.0;
-        if !in_front && (v.lifted.is_none() || wi_local.z <= 0.0) {
+        if wi_local.z <= 0.0 || (!in_front && v.lifted.is_none()) {
             return sink.term(Vec3::ZERO);
         }
         let f = material::eval(v.m, v.wo, wi_local);

@@ -364,9 +364,9 @@ impl<'a, A: Accel> Integrator<'a, A> {
             (sp.geometric_normal, sp.shading_normal)
         };
         // A smooth normal can tilt away from a view that the geometric
-        // normal faces: sample on the view's side of the shading plane
-        // (which side scatters is the geometric normal's call).
-        let ns = if !dielectric && wo.dot(ns) < 0.0 {
+        // normal faces: turn it to the view where the material is defined
+        // about the view (see `material::turns_to_view`).
+        let ns = if !dielectric && material::turns_to_view(m) && wo.dot(ns) < 0.0 {
             -ns
         } else {
             ns
