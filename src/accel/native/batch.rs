@@ -345,19 +345,38 @@ impl Query for Occluded {
 }
 
 impl NativeBvh {
-    /// A group of up to `W::N` rays of a batch query: the traceable ones
-    /// of one octant as a packet when there are [`min_packet`] of them,
-    /// the others one at a time.
+    /// Whether a group of up to `W::N` rays of a batch query forms a
+    /// packet: its rays in lanes when an octant holds [`min_packet`] of
+    /// them (traceable or not), `None` when none does, having cost the
+    /// transposition and no more.
+    ///
+    /// # Safety
+    /// From `W`'s `#[target_feature]` code.
+    #[cfg(target_arch = "x86_64")]
+    #[inline(always)]
+    unsafe fn forms<W: Width>(rays: &[Ray]) -> Option<[W::V; 8]> {
+        // SAFETY: the caller runs with the width's CPU features enabled.
+        unsafe {
+            let fields = W::fields(rays);
+            packet::octant_holds::<W>(&fields, rays.len(), min_packet(W::N)).then_some(fields)
+        }
+    }
+
+    /// The packets of a group of up to `W::N` rays whose fields are
+    /// `fields` ([`Self::forms`]): the traceable ones of each octant as a
+    /// packet when there are [`min_packet`] of them, the others one at a
+    /// time.
     ///
     /// # Safety
     /// From `W`'s `#[target_feature]` code; the triangle tree is not
     /// empty.
     #[cfg(target_arch = "x86_64")]
     #[inline(always)]
-    unsafe fn group<W: Width, Q: Query>(
+    unsafe fn packets<W: Width, Q: Query>(
         &self,
         blocks: &[TriangleBlock4],
         rays: &[Ray],
+        fields: &[W::V; 8],
         out: &mut [Q::Answer],
         counters: &mut TraceCounters,
     ) {
@@ -365,7 +384,7 @@ impl NativeBvh {
         // enabled (a detected token chose this code) and the tree was checked by
         // `Tree::new`, so every node reference read from it is in range.
         unsafe {
-            let prepared = PacketRays::<W>::load(rays);
+            let prepared = PacketRays::<W>::from_fields(*fields, rays.len());
             let mut rest = prepared.traceable;
             let lanes = (1u32 << out.len()) - 1;
             for i in lanes_of(lanes & !rest) {
@@ -392,8 +411,9 @@ impl NativeBvh {
         }
     }
 
-    /// [`Self::group`] in AVX2 registers: eight rays ([`X8`]) or sixteen
-    /// in two registers per value ([`X8x2`]).
+    /// A group of a batch query in AVX2 registers, eight rays ([`X8`]) or
+    /// sixteen in two registers per value ([`X8x2`]): traced as packets
+    /// when it forms one ([`Self::forms`]), else false with nothing traced.
     ///
     /// # Safety
     /// The CPU has AVX2 (the caller holds the token); the triangle tree is
@@ -406,13 +426,19 @@ impl NativeBvh {
         rays: &[Ray],
         out: &mut [Q::Answer],
         counters: &mut TraceCounters,
-    ) {
+    ) -> bool {
         // SAFETY: AVX2 and FMA are enabled here, which is all either AVX2
         // width needs, and the caller keeps the tree's contract.
-        unsafe { self.group::<W, Q>(blocks, rays, out, counters) }
+        unsafe {
+            let Some(fields) = Self::forms::<W>(rays) else {
+                return false;
+            };
+            self.packets::<W, Q>(blocks, rays, &fields, out, counters);
+            true
+        }
     }
 
-    /// [`Self::group`] with sixteen rays in AVX-512 lanes.
+    /// [`Self::group_avx2`] with sixteen rays in AVX-512 lanes.
     ///
     /// # Safety
     /// The CPU has AVX-512F and AVX2 (the caller holds the token); the
@@ -425,11 +451,16 @@ impl NativeBvh {
         rays: &[Ray],
         out: &mut [Q::Answer],
         counters: &mut TraceCounters,
-    ) {
-        // SAFETY: the caller upholds this kernel's contract: the width's CPU features are
-        // enabled (a detected token chose this code) and the tree was checked by
-        // `Tree::new`, so every node reference read from it is in range.
-        unsafe { self.group::<X16, Q>(blocks, rays, out, counters) }
+    ) -> bool {
+        // SAFETY: AVX-512F is enabled here, which X16 needs, and the
+        // caller keeps the tree's contract.
+        unsafe {
+            let Some(fields) = Self::forms::<X16>(rays) else {
+                return false;
+            };
+            self.packets::<X16, Q>(blocks, rays, &fields, out, counters);
+            true
+        }
     }
 
     /// A batch query through the packet kernels this tree may run; `None`
@@ -453,7 +484,7 @@ impl NativeBvh {
             &[Ray],
             &mut [<Q as Query>::Answer],
             &mut TraceCounters,
-        );
+        ) -> bool;
         let (group, lanes): (Group<Q>, usize) = match self.packets {
             PacketKernels::Avx512(_) => (Self::group16::<Q>, 16),
             PacketKernels::Avx2(_) => (Self::group_avx2::<X8, Q>, 8),
@@ -479,8 +510,13 @@ impl NativeBvh {
                     std::arch::x86_64::_mm_prefetch::<{ std::arch::x86_64::_MM_HINT_T0 }>(line)
                 };
             }
-            let packs = packet::packet_can_form(group_rays, min_packet(lanes));
-            if !packs && !Q::STREAMS {
+            // SAFETY: the kernels were chosen by the token that proves
+            // their CPU features; the triangle tree is not empty (checked
+            // above).
+            if unsafe { group(self, blocks, group_rays, &mut out[start..end], counters) } {
+                continue;
+            }
+            if !Q::STREAMS {
                 // No packet can form: the rays go alone, as single-ray
                 // queries do, outside the lanes' code (traced from inside
                 // it, incoherent batches ran at 0.93x single rays).
@@ -489,22 +525,15 @@ impl NativeBvh {
                 }
                 continue;
             }
-            if !packs {
-                // Or they wait for a stream's worth, traced together.
-                for i in start..end {
-                    pending[waiting] = i as u32;
-                    waiting += 1;
-                    if waiting == traverse::STREAM {
-                        Q::rest(self, blocks, rays, &pending, out, counters);
-                        waiting = 0;
-                    }
+            // Or they wait for a stream's worth, traced together.
+            for i in start..end {
+                pending[waiting] = i as u32;
+                waiting += 1;
+                if waiting == traverse::STREAM {
+                    Q::rest(self, blocks, rays, &pending, out, counters);
+                    waiting = 0;
                 }
-                continue;
             }
-            // SAFETY: the kernels were chosen by the token that proves
-            // their CPU features; the triangle tree is not empty (checked
-            // above).
-            unsafe { group(self, blocks, group_rays, &mut out[start..end], counters) };
         }
         if waiting > 0 {
             Q::rest(self, blocks, rays, &pending[..waiting], out, counters);

@@ -47,7 +47,6 @@ pub use self::width::{Width, MAX_LANES, X8};
 pub use self::x16::X16;
 pub use self::x8x2::X8x2;
 use super::*;
-use crate::geom::Ray;
 
 /// A packet's rays as the leaf test takes them: origins, directions and
 /// `t_min`, one lane per ray.
@@ -90,42 +89,45 @@ fn same_octant(negative: [u32; 3], group: u32) -> u32 {
     same
 }
 
-/// Whether `min` of `rays` share an octant, read from the
-/// directions' sign bits (the octants the packet code sorts traceable rays
-/// by) in plain scalar code, so that a group where no packet can form
-/// costs a few instructions a ray and never the lanes' set-up.
+/// Whether `min` of the `n` rays whose fields are `fields` ([`Width::fields`])
+/// share an octant, read from the directions' sign bits (the octants the
+/// packet code sorts traceable rays by) once the rays are in lanes, so
+/// that a group where no packet can form costs its transposition and
+/// never the rest of the lanes' set-up.
+///
+/// # Safety
+/// Only from `W`'s `#[target_feature]` code ([`Width`]).
 #[inline(always)]
-pub fn packet_can_form(rays: &[Ray], min: u32) -> bool {
-    debug_assert!(rays.len() <= MAX_LANES && (1..=MAX_LANES as u32).contains(&min));
-    // One byte per octant counts its rays (at most sixteen, so no byte
-    // carries into the next); adding 128 - min to every byte sets the
-    // top bit of those that reached `min`.
-    let mut counts = 0u64;
-    for ray in rays {
-        let sign = |x: f32| (x.to_bits() >> 31) as u64;
-        let octant = sign(ray.dir.x) | sign(ray.dir.y) << 1 | sign(ray.dir.z) << 2;
-        counts += 1 << (8 * octant);
+pub unsafe fn octant_holds<W: Width>(fields: &[W::V; 8], n: usize, min: u32) -> bool {
+    // SAFETY: the caller runs with the width's CPU features enabled.
+    let negative = unsafe { [W::signs(fields[3]), W::signs(fields[4]), W::signs(fields[5])] };
+    let mut rest = (1u32 << n.min(W::N)) - 1;
+    while rest.count_ones() >= min {
+        let group = same_octant(negative, rest);
+        if group.count_ones() >= min {
+            return true;
+        }
+        rest &= !group;
     }
-    let threshold = (128 - u64::from(min)) * 0x0101_0101_0101_0101;
-    (counts + threshold) & 0x8080_8080_8080_8080 != 0
+    false
 }
 
 impl<W: Width> PacketRays<W> {
-    /// The first `W::N` of `rays` (at least one) as lanes. Callers ask
-    /// [`packet_can_form`] first: without a packet the set-up (three
-    /// divisions, the box test's constants) is paid for nothing.
+    /// The first `W::N` of `n` rays (at least one) as lanes, from their
+    /// fields ([`Width::fields`]). Callers ask [`octant_holds`] first:
+    /// without a packet the set-up (three divisions, the box test's
+    /// constants) is paid for nothing.
     ///
     /// # Safety
     /// Only from `W`'s `#[target_feature]` code ([`Width`]).
     #[inline(always)]
-    pub unsafe fn load(rays: &[Ray]) -> PacketRays<W> {
+    pub unsafe fn from_fields(fields: [W::V; 8], n: usize) -> PacketRays<W> {
         // SAFETY: the caller upholds this kernel's contract: the width's CPU features are
-        // enabled (a detected token chose this code) and the tree was checked by
-        // `Tree::new`, so every node reference read from it is in range.
+        // enabled (a detected token chose this code).
         unsafe {
-            let [ox, oy, oz, dx, dy, dz, t_min, t_max] = W::fields(rays);
+            let [ox, oy, oz, dx, dy, dz, t_min, t_max] = fields;
             let (origin, dir) = ([ox, oy, oz], [dx, dy, dz]);
-            let lanes = (1u32 << rays.len().min(W::N)) - 1;
+            let lanes = (1u32 << n.min(W::N)) - 1;
             // Ray::traceable_vectors, lane by lane.
             let limit = W::splat(crate::geom::ray::COORDINATE_LIMIT);
             let zero = W::splat(0.0);
@@ -194,7 +196,7 @@ impl<W: Width> PacketRays<W> {
     /// exactly as by the ray alone.
     ///
     /// # Safety
-    /// As [`PacketRays::load`].
+    /// As [`PacketRays::from_fields`].
     #[inline(always)]
     pub unsafe fn enters(&self, [lo, hi]: [Vec3A; 2], t_max: W::V) -> u32 {
         // SAFETY: the caller upholds this kernel's contract: the width's CPU features are
@@ -221,7 +223,7 @@ impl<W: Width> PacketRays<W> {
     /// Each lane's `t_max`.
     ///
     /// # Safety
-    /// As [`PacketRays::load`].
+    /// As [`PacketRays::from_fields`].
     #[inline(always)]
     pub unsafe fn t_max(&self) -> [f32; MAX_LANES] {
         // SAFETY: the caller upholds this kernel's contract: the width's CPU features are
@@ -482,9 +484,34 @@ pub unsafe fn any<W: Width, const ROBUST: bool, P: PacketLeaves<W>>(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::geom::Ray;
 
-    /// The byte counters agree with counting each octant's rays, for
-    /// every threshold and group size, signed zeros included.
+    /// [`octant_holds`] in plain scalar code: the test's reference.
+    fn packet_can_form(rays: &[Ray], min: u32) -> bool {
+        debug_assert!(rays.len() <= MAX_LANES && (1..=MAX_LANES as u32).contains(&min));
+        // One byte per octant counts its rays (at most sixteen, so no byte
+        // carries into the next); adding 128 - min to every byte sets the
+        // top bit of those that reached `min`.
+        let mut counts = 0u64;
+        for ray in rays {
+            let sign = |x: f32| (x.to_bits() >> 31) as u64;
+            let octant = sign(ray.dir.x) | sign(ray.dir.y) << 1 | sign(ray.dir.z) << 2;
+            counts += 1 << (8 * octant);
+        }
+        let threshold = (128 - u64::from(min)) * 0x0101_0101_0101_0101;
+        (counts + threshold) & 0x8080_8080_8080_8080 != 0
+    }
+
+    /// [`octant_holds`] with eight lanes.
+    #[target_feature(enable = "avx2,fma")]
+    unsafe fn holds_x8(rays: &[Ray], min: u32) -> bool {
+        // SAFETY: AVX2 is enabled here, all X8 needs.
+        unsafe { octant_holds::<X8>(&X8::fields(rays), rays.len(), min) }
+    }
+
+    /// The byte counters, and the lanes' sign bits ([`octant_holds`]),
+    /// agree with counting each octant's rays, for every threshold and
+    /// group size, signed zeros included.
     #[test]
     fn packets_form_where_an_octant_holds_enough_rays() {
         let mut state = 0x9e37_79b9_u32;
@@ -522,6 +549,11 @@ mod tests {
                     expected,
                     "{counts:?}, min {min}"
                 );
+                if n <= 8 && is_x86_feature_detected!("avx2") {
+                    // SAFETY: the CPU has AVX2, all X8 needs.
+                    let lanes = unsafe { holds_x8(&rays, min) };
+                    assert_eq!(lanes, expected, "X8: {counts:?}, min {min}");
+                }
             }
         }
     }

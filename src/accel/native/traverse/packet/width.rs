@@ -62,6 +62,8 @@ pub unsafe trait Width: Copy {
     /// `repr(C)`), one vector per field; lanes past the rays repeat the
     /// last.
     unsafe fn fields(rays: &[Ray]) -> [Self::V; 8];
+    /// The lanes whose sign bit is set (negative zero and NaNs included).
+    unsafe fn signs(v: Self::V) -> u32;
 }
 
 /// Eight rays in AVX2 lanes.
@@ -350,6 +352,12 @@ unsafe impl Width for X8 {
         // every lane operation; memory is reached only through references to whole lane
         // arrays and rays.
         unsafe { fields8(rays) }
+    }
+    #[inline(always)]
+    unsafe fn signs(v: __m256) -> u32 {
+        // SAFETY: the caller runs with AVX2 enabled, as the `Width` contract requires of
+        // every lane operation.
+        unsafe { _mm256_movemask_ps(v) as u32 }
     }
 }
 

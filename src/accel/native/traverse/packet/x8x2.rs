@@ -159,6 +159,11 @@ unsafe impl Width for X8x2 {
         }
     }
     #[inline(always)]
+    unsafe fn signs(v: [__m256; 2]) -> u32 {
+        // SAFETY: as in `both`.
+        unsafe { X8::signs(v[0]) | X8::signs(v[1]) << 8 }
+    }
+    #[inline(always)]
     unsafe fn fields(rays: &[Ray]) -> [[__m256; 2]; 8] {
         let n = rays.len().min(16);
         // Lanes past the rays repeat the last: the second half of a short
