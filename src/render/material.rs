@@ -81,7 +81,11 @@ fn same_side(wo: Vec3, wi: Vec3) -> Option<(Vec3, Vec3)> {
 /// staircase of lit triangles.)
 pub fn eval(m: &Material, wo: Vec3, wi: Vec3) -> Vec3 {
     if let Material::Lambertian { albedo, .. } = *m {
-        return if wi.z > 0.0 { albedo * FRAC_1_PI } else { Vec3::ZERO };
+        return if wi.z > 0.0 {
+            albedo * FRAC_1_PI
+        } else {
+            Vec3::ZERO
+        };
     }
     if wo.z * wi.z <= 0.0 {
         return Vec3::ZERO;

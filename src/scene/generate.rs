@@ -124,7 +124,12 @@ pub fn quad_ball(n: u32) -> (Vec<Vec3>, Vec<[u32; 3]>) {
         };
         for j in 0..n {
             for i in 0..n {
-                let q = [vertex(i, j), vertex(i + 1, j), vertex(i + 1, j + 1), vertex(i, j + 1)];
+                let q = [
+                    vertex(i, j),
+                    vertex(i + 1, j),
+                    vertex(i + 1, j + 1),
+                    vertex(i, j + 1),
+                ];
                 tris.push([q[0], q[1], q[2]]);
                 tris.push([q[0], q[2], q[3]]);
             }

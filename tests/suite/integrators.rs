@@ -570,8 +570,8 @@ fn emissive_spheres_are_lights_for_both_estimators() {
 /// (no pixel brighter than the light).
 #[test]
 fn smooth_normals_on_a_shared_corner_cube_neither_blacken_nor_blow_up() {
-    use hybrid::scene::generate::{cube, SceneBuilder};
     use hybrid::accel::Accel;
+    use hybrid::scene::generate::{cube, SceneBuilder};
     use hybrid::scene::{AreaLight, Light, Material, NormalMode};
     let radiance = 6.0;
     let build = |material: Material, normals: NormalMode| {

@@ -203,7 +203,10 @@ fn smooth_ball_radiance(light: &Light, p: Vec3, n: Vec3) -> f32 {
     };
     let irradiance = match light {
         Light::Directional { to_light, radiance } => radiance.x * n.dot(*to_light).max(0.0),
-        Light::Point { position, intensity } => towards(*position, intensity.x),
+        Light::Point {
+            position,
+            intensity,
+        } => towards(*position, intensity.x),
         Light::Area(a) => {
             let centre = a.origin + (a.edge_u + a.edge_v) * 0.5;
             let facing = a.normal.dot((p - centre).normalize()).max(0.0);
@@ -290,14 +293,27 @@ fn a_coarse_ball_under_each_light_kind_ends_its_light_at_the_smooth_terminator()
                             }
                         }
                     }
-                    let label = format!("{mesh}, {kind} light, {} {}", backend.label(), estimator.name());
+                    let label = format!(
+                        "{mesh}, {kind} light, {} {}",
+                        backend.label(),
+                        estimator.name()
+                    );
                     println!("{label}: {lit} lit pixels, {dark} dark; {beyond} beyond the terminator, {leaks} lit");
-                    assert!(lit > 500, "{label}: the view misses the lit side ({lit} pixels)");
+                    assert!(
+                        lit > 500,
+                        "{label}: the view misses the lit side ({lit} pixels)"
+                    );
                     assert_eq!(dark, 0, "{label}: {dark} of {lit} pixels facing the light are darker than the smooth ball");
                     if !matches!(light, Light::Ambient { .. }) {
-                        assert!(beyond > 500, "{label}: the view misses the dark side ({beyond} pixels)");
+                        assert!(
+                            beyond > 500,
+                            "{label}: the view misses the dark side ({beyond} pixels)"
+                        );
                     }
-                    assert_eq!(leaks, 0, "{label}: {leaks} of {beyond} pixels facing away from the light are lit");
+                    assert_eq!(
+                        leaks, 0,
+                        "{label}: {leaks} of {beyond} pixels facing away from the light are lit"
+                    );
                 }
             }
         }

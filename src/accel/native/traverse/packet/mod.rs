@@ -100,7 +100,13 @@ fn same_octant(negative: [u32; 3], group: u32) -> u32 {
 #[inline(always)]
 pub unsafe fn octant_holds<W: Width>(fields: &[W::V; 8], n: usize, min: u32) -> bool {
     // SAFETY: the caller runs with the width's CPU features enabled.
-    let negative = unsafe { [W::signs(fields[3]), W::signs(fields[4]), W::signs(fields[5])] };
+    let negative = unsafe {
+        [
+            W::signs(fields[3]),
+            W::signs(fields[4]),
+            W::signs(fields[5]),
+        ]
+    };
     let mut rest = (1u32 << n.min(W::N)) - 1;
     while rest.count_ones() >= min {
         let group = same_octant(negative, rest);

@@ -289,7 +289,12 @@ unsafe impl Width for X16 {
     unsafe fn signs(v: __m512) -> u32 {
         // SAFETY: the caller runs with AVX-512F and AVX2 enabled, as the `Width` contract
         // requires of every lane operation. A float's sign bit is its bits' as an integer.
-        unsafe { u32::from(_mm512_cmplt_epi32_mask(_mm512_castps_si512(v), _mm512_setzero_si512())) }
+        unsafe {
+            u32::from(_mm512_cmplt_epi32_mask(
+                _mm512_castps_si512(v),
+                _mm512_setzero_si512(),
+            ))
+        }
     }
     #[inline(always)]
     unsafe fn fields(rays: &[Ray]) -> [__m512; 8] {
