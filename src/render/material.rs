@@ -1,17 +1,16 @@
 //! Scattering at a surface: evaluation, sampling and sampling density of
 //! each material of the dialect, in the local frame of the shading normal
-//! (z = shading normal, both directions pointing away from the surface).
+//! (z = shading normal, both directions pointing away from the surface),
+//! and the answers to what the integrator asks of a material ([`Lobe`]).
 //!
-//! Which directions an opaque surface scatters into is decided by the
-//! geometric normal, not the shading normal (the integrator requires
-//! `wo·ng > 0` and `wi·ng > 0`), as in pbrt-v3: smooth normals tilt the
-//! shading frame, and a view or a light below the shading plane but above
-//! the surface must not turn a surface black. Inside that rule the BSDF is
-//! evaluated in the shading frame with absolute cosines, whichever side of
-//! the shading plane each direction is on. Sampling draws directions on
-//! `wo`'s side of the shading plane only, and [`pdf`] is zero on the other
-//! side, so multiple importance sampling stays consistent there (light
-//! sampling alone covers that sliver).
+//! An opaque surface is seen from the front of its facet (the integrator
+//! requires `wo·ng > 0`) and reflects light arriving in front of both the
+//! facet and the shading normal (`wi·ng > 0`, or the point lifted onto the
+//! smooth surface, and `wi.z > 0` here), as in pbrt-v4 and Mitsuba 3.
+//! Sampling draws directions in front of the shading normal only, and
+//! [`pdf`] is zero elsewhere, so multiple importance sampling stays
+//! consistent (light sampling alone covers directions behind the facet
+//! that the lift lets through).
 
 use glam::Vec3;
 use std::f32::consts::{FRAC_1_PI, PI};
@@ -30,23 +29,59 @@ pub struct BsdfSample {
     pub specular: bool,
 }
 
-/// True for materials whose BSDF is a delta distribution (or emits only):
-/// light sampling is skipped there.
-pub fn is_specular(m: &Material) -> bool {
-    matches!(
-        m,
-        Material::Mirror { .. } | Material::Glass { .. } | Material::Refraction { .. }
-    )
+/// How a material scatters: the one place each material answers what the
+/// integrator asks of it ([`Lobe::is_specular`], [`Lobe::transmits`],
+/// [`Lobe::turns_to_view`]). Every match on materials in this module is
+/// exhaustive, so a new material answers every question before it builds.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Lobe {
+    /// Diffuse reflection, the same for every view (Lambertian).
+    Diffuse,
+    /// A glossy lobe about the view's mirror direction (microfacet).
+    Glossy,
+    /// One reflected direction.
+    Mirror,
+    /// Reflection and transmission through a smooth interface: the surface
+    /// has an inside, so its normals keep their outward side.
+    Dielectric,
+    /// Emits, scatters nothing.
+    Emitter,
 }
 
-/// Whether the integrator turns the shading frame to face the view where
-/// a smooth normal tilts away from it (seen near a coarse mesh's
-/// silhouette): a microfacet lobe and a mirror are defined about `wo`
-/// and need it above the shading plane. A Lambertian surface does not
-/// depend on `wo`: it keeps the smooth surface's outer side, so it is lit
-/// exactly where the smooth normal faces the light, at the silhouette too.
-pub fn turns_to_view(m: &Material) -> bool {
-    !matches!(m, Material::Lambertian { .. })
+/// The lobe of material `m`.
+pub fn lobe(m: &Material) -> Lobe {
+    match m {
+        Material::Lambertian { .. } => Lobe::Diffuse,
+        Material::Microfacet { .. } => Lobe::Glossy,
+        Material::Mirror { .. } => Lobe::Mirror,
+        Material::Glass { .. } | Material::Refraction { .. } => Lobe::Dielectric,
+        Material::Emission { .. } => Lobe::Emitter,
+    }
+}
+
+impl Lobe {
+    /// A delta distribution: light sampling is skipped there, and shadow
+    /// rays never leave it.
+    pub fn is_specular(self) -> bool {
+        matches!(self, Lobe::Mirror | Lobe::Dielectric)
+    }
+
+    /// Light passes through: the surface is not two-sided, the normals
+    /// keep their outward side to tell inside from out.
+    pub fn transmits(self) -> bool {
+        self == Lobe::Dielectric
+    }
+
+    /// Whether the integrator turns the shading frame to face the view
+    /// where a smooth normal tilts away from it (seen near a coarse mesh's
+    /// silhouette): a glossy lobe and a mirror are defined about `wo` and
+    /// need it above the shading plane. A diffuse surface does not depend
+    /// on `wo`: it keeps the smooth surface's outer side, so it is lit
+    /// exactly where the smooth normal faces the light, at the silhouette
+    /// too. (An emitter scatters nothing, so either answer serves.)
+    pub fn turns_to_view(self) -> bool {
+        self != Lobe::Diffuse
+    }
 }
 
 /// Radiance emitted towards a direction whose cosine with the geometric
@@ -73,25 +108,16 @@ fn same_side(wo: Vec3, wi: Vec3) -> Option<(Vec3, Vec3)> {
 
 /// BSDF value `f(wo, wi)` for non-delta materials (zero for delta ones).
 /// Every such material reflects only: a Lambertian surface into the
-/// shading frame's upper side whatever `wo` (see [`turns_to_view`]), a
+/// shading frame's upper side whatever `wo` (see [`Lobe::turns_to_view`]), a
 /// microfacet one into `wo`'s side of the shading plane. Directions on the
 /// other side get zero, whichever side of the facet they are on. (Counting
 /// them, as these materials once did where the geometric normal let them
 /// through, lit the facets beyond a coarse mesh's smooth terminator: a
 /// staircase of lit triangles.)
 pub fn eval(m: &Material, wo: Vec3, wi: Vec3) -> Vec3 {
-    if let Material::Lambertian { albedo, .. } = *m {
-        return if wi.z > 0.0 {
-            albedo * FRAC_1_PI
-        } else {
-            Vec3::ZERO
-        };
-    }
-    if wo.z * wi.z <= 0.0 {
-        return Vec3::ZERO;
-    }
     match *m {
-        Material::Microfacet { alpha, eta, k } => {
+        Material::Lambertian { albedo, .. } if wi.z > 0.0 => albedo * FRAC_1_PI,
+        Material::Microfacet { alpha, eta, k } if wo.z * wi.z > 0.0 => {
             let h = (wo + wi).normalize_or_zero();
             if h == Vec3::ZERO {
                 return Vec3::ZERO;
@@ -100,28 +126,34 @@ pub fn eval(m: &Material, wo: Vec3, wi: Vec3) -> Vec3 {
             let f = fresnel_conductor(wi.dot(h).abs(), eta, k);
             f * beckmann_d(h, alpha) * smith_g2(wo, wi, alpha) / (4.0 * wo.z.abs() * wi.z.abs())
         }
-        _ => Vec3::ZERO,
+        Material::Lambertian { .. }
+        | Material::Microfacet { .. }
+        | Material::Mirror { .. }
+        | Material::Glass { .. }
+        | Material::Refraction { .. }
+        | Material::Emission { .. } => Vec3::ZERO,
     }
 }
 
 /// The density (solid angle) with which [`sample`] draws `wi` for `wo`;
 /// zero for delta materials and for directions it never draws.
 pub fn pdf(m: &Material, wo: Vec3, wi: Vec3) -> f32 {
-    if let Material::Lambertian { .. } = *m {
-        return wi.z.max(0.0) * FRAC_1_PI;
-    }
-    let Some((wo, wi)) = same_side(wo, wi) else {
-        return 0.0;
-    };
     match *m {
+        Material::Lambertian { .. } => wi.z.max(0.0) * FRAC_1_PI,
         Material::Microfacet { alpha, .. } => {
+            let Some((wo, wi)) = same_side(wo, wi) else {
+                return 0.0;
+            };
             let h = (wo + wi).normalize_or_zero();
             if h == Vec3::ZERO {
                 return 0.0;
             }
             visible_normal_pdf(wo, h, alpha) / (4.0 * wo.dot(h).abs())
         }
-        _ => 0.0,
+        Material::Mirror { .. }
+        | Material::Glass { .. }
+        | Material::Refraction { .. }
+        | Material::Emission { .. } => 0.0,
     }
 }
 

@@ -57,7 +57,10 @@ impl Material {
         match *self {
             Material::Emission { radiance } => radiance,
             Material::Lambertian { emission, .. } => emission,
-            _ => Vec3::ZERO,
+            Material::Mirror { .. }
+            | Material::Glass { .. }
+            | Material::Refraction { .. }
+            | Material::Microfacet { .. } => Vec3::ZERO,
         }
     }
 

@@ -35,7 +35,7 @@ pub use self::shadows::ShadowTape;
 use self::shadows::Shadows;
 
 use super::light::{ambient_radiance, escaped_radiance, pdf_li, Facing, LightRef, LightSet};
-use super::material::{self, emitted, is_specular};
+use super::material::{self, emitted};
 use crate::accel::{Accel, TraceCounters};
 use crate::geom::ray::SpawnPoint;
 use crate::geom::sampling::{Frame, Rng};
@@ -356,7 +356,8 @@ impl<'a, A: Accel> Integrator<'a, A> {
         }
         // Opaque surfaces are two-sided: face the normals towards wo.
         // Dielectrics keep the outward normal to know inside from out.
-        let dielectric = matches!(m, Material::Glass { .. } | Material::Refraction { .. });
+        let lobe = material::lobe(m);
+        let dielectric = lobe.transmits();
         let back = !dielectric && wo.dot(sp.geometric_normal) < 0.0;
         let (ng, ns) = if back {
             (-sp.geometric_normal, -sp.shading_normal)
@@ -365,8 +366,8 @@ impl<'a, A: Accel> Integrator<'a, A> {
         };
         // A smooth normal can tilt away from a view that the geometric
         // normal faces: turn it to the view where the material is defined
-        // about the view (see `material::turns_to_view`).
-        let ns = if !dielectric && material::turns_to_view(m) && wo.dot(ns) < 0.0 {
+        // about the view (see `material::Lobe::turns_to_view`).
+        let ns = if !dielectric && lobe.turns_to_view() && wo.dot(ns) < 0.0 {
             -ns
         } else {
             ns
@@ -378,7 +379,7 @@ impl<'a, A: Accel> Integrator<'a, A> {
         };
         // Shadow rays leave from the point lifted onto the smooth
         // surface (the shadow-terminator fix), where there is one.
-        let lift = if is_specular(m) {
+        let lift = if lobe.is_specular() {
             Vec3::ZERO
         } else {
             self.scene.shadow_lift(&hit, sp.position, ng)
@@ -412,7 +413,7 @@ impl<'a, A: Accel> Integrator<'a, A> {
         rng: &mut Rng,
         sink: &mut impl Shadows,
     ) -> bool {
-        if is_specular(vertex.m) {
+        if material::lobe(vertex.m).is_specular() {
             return false;
         }
         let mut light_rng = rng.split();
