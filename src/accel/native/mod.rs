@@ -405,3 +405,75 @@ impl Accel for NativeBvh {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::accel::brute::BruteForce;
+    use crate::scene::builder::SceneBuilder;
+    use crate::scene::generate::{icosphere, quad_ball};
+    use crate::scene::{Material, NormalMode};
+    use glam::Vec3;
+
+    /// The scalar kernels (no SIMD, the twin every CPU runs) and the
+    /// checked `Tree` they read, on a scene small enough for Miri
+    /// (`cargo +nightly miri test --lib native::tests`): every ray's
+    /// closest hit and occlusion agree with brute force.
+    #[test]
+    fn the_scalar_walks_agree_with_brute_force() {
+        let mut b = SceneBuilder::new("two balls");
+        let grey = b.material(Material::lambertian(Vec3::splat(0.5)));
+        let (p, t) = icosphere(1);
+        b.mesh(&p, &t, grey);
+        let (p, t) = quad_ball(2);
+        let moved: Vec<Vec3> = p
+            .iter()
+            .map(|&v| v * 0.5 + Vec3::new(1.6, 0.2, 0.0))
+            .collect();
+        b.mesh(&moved, &t, grey);
+        b.camera(Vec3::new(0.5, 0.0, 5.0), Vec3::ZERO, 40.0, 40.0);
+        let scene = b.finish(NormalMode::Smooth);
+        let options = NativeOptions {
+            simd: false,
+            max_leaf: 2,
+            ..NativeOptions::DEFAULT
+        };
+        let bvh = NativeBvh::build(&scene, &options).expect("builds");
+        let brute = BruteForce::build(&scene);
+        let mut counters = TraceCounters::default();
+        let (mut hits, mut rays) = (0, 0);
+        for i in 0..12 {
+            for j in 0..12 {
+                let target = Vec3::new(-1.5 + 0.3 * i as f32, -1.5 + 0.25 * j as f32, 0.0);
+                let origin = Vec3::new(0.5, 0.3, 5.0);
+                let ray = Ray::new(origin, (target - origin).normalize());
+                let (native, reference) = (
+                    bvh.closest_hit(&ray, &mut counters),
+                    brute.closest_hit(&ray, &mut counters),
+                );
+                // Where a ray meets an edge, either triangle is its hit.
+                assert_eq!(native.is_some(), reference.is_some(), "ray {i} {j}");
+                if let (Some(n), Some(r)) = (native, reference) {
+                    assert!(
+                        (n.t - r.t).abs() <= 1e-5 * r.t,
+                        "ray {i} {j}: t {} vs {}",
+                        n.t,
+                        r.t
+                    );
+                    hits += 1;
+                }
+                let shadow = Ray { t_max: 4.0, ..ray };
+                assert_eq!(
+                    bvh.occluded(&shadow, &mut counters),
+                    brute.occluded(&shadow, &mut counters),
+                    "shadow ray {i} {j}"
+                );
+                rays += 1;
+            }
+        }
+        assert!(
+            hits > rays / 4 && hits < rays,
+            "{hits} of {rays} rays hit: the view misses the case"
+        );
+    }
+}

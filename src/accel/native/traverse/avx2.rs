@@ -161,8 +161,13 @@ unsafe fn push_any(node: &Node8, mask: u32, refs: *mut ChildRef, top: &mut usize
     }
 }
 
-/// From `start`: the root, or (packet traversal handing one ray over) a
-/// child reference read from one of the tree's nodes.
+/// One ray's walk from `start`: the root, or (packet traversal handing one
+/// ray over) a child reference read from one of the tree's nodes. The
+/// closest hit (`ANY` false: children pushed nearest first with their
+/// entry distances, `t_max` shrinking to each hit, true if any) or any hit
+/// within `t_max` (`ANY` true: children in slot order, no distances, true
+/// at the first). One walk for both queries, the choice made at compile
+/// time, so each query's code is what it was written out alone.
 ///
 /// # Safety
 /// Needs the token's CPU features (AVX2, FMA, bit counting), a non-empty
@@ -170,7 +175,7 @@ unsafe fn push_any(node: &Node8, mask: u32, refs: *mut ChildRef, top: &mut usize
 /// (references in range, depth at most [`MAX_DEPTH`], so the stack holds
 /// every push).
 #[target_feature(enable = "avx2,fma,popcnt,lzcnt,bmi1,bmi2")]
-pub unsafe fn closest<const ROBUST: bool, L: Leaves>(
+pub unsafe fn walk<const ROBUST: bool, const ANY: bool, L: Leaves>(
     _cpu: Avx2,
     tree: &Tree,
     ray: &BoxRay,
@@ -205,6 +210,8 @@ pub unsafe fn closest<const ROBUST: bool, L: Leaves>(
                 if mask != 0 {
                     current = if mask & (mask - 1) == 0 {
                         node.child[mask.trailing_zeros() as usize]
+                    } else if ANY {
+                        push_any(node, mask, refs, &mut top)
                     } else {
                         // SAFETY: `top` stays below STACK - WIDTH: every
                         // level leaves at most seven entries and the depth
@@ -216,12 +223,16 @@ pub unsafe fn closest<const ROBUST: bool, L: Leaves>(
             } else {
                 if top > 0 {
                     // The next entry is fetched while the leaf is tested.
-                    // SAFETY: entries below `top` were written by `push`.
+                    // SAFETY: entries below `top` were written by a push.
                     prefetch(tree, leaves, *refs.add(top - 1));
                 }
                 let count = leaf_count(current);
                 work.items += count as u64;
-                if let Some(t) = leaves.nearest(leaf_first(current), count, *t_max) {
+                if ANY {
+                    if leaves.any(leaf_first(current), count, *t_max) {
+                        return true;
+                    }
+                } else if let Some(t) = leaves.nearest(leaf_first(current), count, *t_max) {
                     *t_max = t;
                     far = _mm256_set1_ps(t);
                     hit = true;
@@ -232,73 +243,13 @@ pub unsafe fn closest<const ROBUST: bool, L: Leaves>(
                     return hit;
                 }
                 top -= 1;
-                // SAFETY: entries below `top` were written by `push`.
-                if *dists.add(top) <= *t_max {
+                // SAFETY: entries below `top` were written by a push (with
+                // their distances, for the closest hit).
+                if ANY || *dists.add(top) <= *t_max {
                     current = *refs.add(top);
                     break;
                 }
             }
-        }
-    }
-}
-
-/// # Safety
-/// As [`closest`].
-#[target_feature(enable = "avx2,fma,popcnt,lzcnt,bmi1,bmi2")]
-pub unsafe fn any<const ROBUST: bool, L: Leaves>(
-    _cpu: Avx2,
-    tree: &Tree,
-    ray: &BoxRay,
-    t_max: f32,
-    leaves: &mut L,
-    work: &mut Work,
-    start: ChildRef,
-) -> bool {
-    // SAFETY: the caller holds the `Avx2` token (or runs inside a function that took it),
-    // so AVX2 is enabled; node references come from a tree checked by `Tree::new`, and
-    // stack pushes stay below `MAX_DEPTH` entries per level, the stack's length.
-    unsafe {
-        let l = lanes::<ROBUST>(ray);
-        let mut refs = AlignedStack::<ChildRef>::new();
-        let refs = refs.as_mut_ptr();
-        let mut top = 0usize;
-        let far = _mm256_set1_ps(t_max);
-        let mut current = start;
-        loop {
-            if !is_leaf(current) {
-                // SAFETY: as in `closest`.
-                let node = tree.node_unchecked(current);
-                // As in `closest`: the child line's miss overlaps the planes'.
-                _mm_prefetch::<_MM_HINT_T0>(node.child.as_ptr().cast());
-                work.nodes += 1;
-                let (_, hits) = slab::<ROBUST>(node, &l, far);
-                let mask = _mm256_movemask_ps(hits) as u32;
-                if mask != 0 {
-                    current = if mask & (mask - 1) == 0 {
-                        node.child[mask.trailing_zeros() as usize]
-                    } else {
-                        push_any(node, mask, refs, &mut top)
-                    };
-                    continue;
-                }
-            } else {
-                if top > 0 {
-                    // The next entry is fetched while the leaf is tested.
-                    // SAFETY: entries below `top` were written by `push`.
-                    prefetch(tree, leaves, *refs.add(top - 1));
-                }
-                let count = leaf_count(current);
-                work.items += count as u64;
-                if leaves.any(leaf_first(current), count, t_max) {
-                    return true;
-                }
-            }
-            if top == 0 {
-                return false;
-            }
-            top -= 1;
-            // SAFETY: entries below `top` were written by `push`.
-            current = *refs.add(top);
         }
     }
 }
@@ -354,7 +305,15 @@ pub unsafe fn any_stream<const ROBUST: bool, L: Leaves>(
                     let i = rest.trailing_zeros() as usize;
                     rest &= rest - 1;
                     let (ray, t) = (rays.get_unchecked(i), *t_max.get_unchecked(i));
-                    if any::<ROBUST, L>(cpu, tree, ray, t, &mut leaves(i), work, current) {
+                    if walk::<ROBUST, true, L>(
+                        cpu,
+                        tree,
+                        ray,
+                        &mut { t },
+                        &mut leaves(i),
+                        work,
+                        current,
+                    ) {
                         blocked |= 1 << i;
                     }
                 }

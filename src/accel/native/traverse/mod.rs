@@ -239,14 +239,14 @@ pub fn closest<L: Leaves>(
         // SAFETY: the token proves the CPU has the kernels' features.
         return unsafe {
             if test == BoxTest::Fast && ray.fast_test_fits() {
-                avx2::closest::<false, L>(cpu, tree, ray, t_max, leaves, work, start)
+                avx2::walk::<false, false, L>(cpu, tree, ray, t_max, leaves, work, start)
             } else {
-                avx2::closest::<true, L>(cpu, tree, ray, t_max, leaves, work, start)
+                avx2::walk::<true, false, L>(cpu, tree, ray, t_max, leaves, work, start)
             }
         };
     }
     let _ = (cpu, test);
-    scalar::closest(tree, ray, t_max, leaves, work, start)
+    scalar::walk::<false, L>(tree, ray, t_max, leaves, work, start)
 }
 
 /// Whether anything below `start` (as in [`closest`]) lies within
@@ -271,14 +271,14 @@ pub fn any<L: Leaves>(
         // SAFETY: the token proves the CPU has the kernels' features.
         return unsafe {
             if test == BoxTest::Fast && ray.fast_test_fits() {
-                avx2::any::<false, L>(cpu, tree, ray, t_max, leaves, work, start)
+                avx2::walk::<false, true, L>(cpu, tree, ray, &mut { t_max }, leaves, work, start)
             } else {
-                avx2::any::<true, L>(cpu, tree, ray, t_max, leaves, work, start)
+                avx2::walk::<true, true, L>(cpu, tree, ray, &mut { t_max }, leaves, work, start)
             }
         };
     }
     let _ = (cpu, test);
-    scalar::any(tree, ray, t_max, leaves, work, start)
+    scalar::walk::<true, L>(tree, ray, &mut { t_max }, leaves, work, start)
 }
 
 /// Which of `rays` (at most [`STREAM`], those in `active`) anything

@@ -97,10 +97,12 @@ fn push_children(
     node.child[nearest.expect("a child was hit")]
 }
 
-/// Out of line: only CPUs without AVX2 run it, and inlined it would
-/// crowd the callers' fast path.
+/// One ray's walk from `start`, as [`super::avx2::walk`]: the closest hit
+/// (`ANY` false) or any hit within `t_max` (`ANY` true). Out of line: only
+/// CPUs without AVX2 run it, and inlined it would crowd the callers' fast
+/// path.
 #[inline(never)]
-pub fn closest<L: Leaves>(
+pub fn walk<const ANY: bool, L: Leaves>(
     tree: &Tree,
     ray: &BoxRay,
     t_max: &mut f32,
@@ -118,13 +120,27 @@ pub fn closest<L: Leaves>(
             work.nodes += 1;
             let (near, mask) = slab(node, ray, *t_max);
             if mask != 0 {
-                current = push_children(node, octant, &near, mask, &mut stack);
+                current = if ANY {
+                    // Slot order (decreasing size), the last hit slot
+                    // first; no distances to keep.
+                    let last = 31 - mask.leading_zeros() as usize;
+                    for i in (0..last).filter(|i| mask & (1 << i) != 0) {
+                        stack.push((node.child[i], 0.0));
+                    }
+                    node.child[last]
+                } else {
+                    push_children(node, octant, &near, mask, &mut stack)
+                };
                 continue;
             }
         } else {
             let count = leaf_count(current);
             work.items += count as u64;
-            if let Some(t) = leaves.nearest(leaf_first(current), count, *t_max) {
+            if ANY {
+                if leaves.any(leaf_first(current), count, *t_max) {
+                    return true;
+                }
+            } else if let Some(t) = leaves.nearest(leaf_first(current), count, *t_max) {
                 *t_max = t;
                 hit = true;
             }
@@ -133,50 +149,10 @@ pub fn closest<L: Leaves>(
             let Some((next, near)) = stack.pop() else {
                 return hit;
             };
-            if near <= *t_max {
+            if ANY || near <= *t_max {
                 current = next;
                 break;
             }
-        }
-    }
-}
-
-/// Out of line, as [`closest`].
-#[inline(never)]
-pub fn any<L: Leaves>(
-    tree: &Tree,
-    ray: &BoxRay,
-    t_max: f32,
-    leaves: &mut L,
-    work: &mut Work,
-    start: ChildRef,
-) -> bool {
-    let mut stack = Stack::new(0);
-    let mut current = start;
-    loop {
-        if !is_leaf(current) {
-            let node = &tree.nodes()[current as usize];
-            work.nodes += 1;
-            let (_, mask) = slab(node, ray, t_max);
-            if mask != 0 {
-                // Slot order (decreasing size), the last hit slot first.
-                let last = 31 - mask.leading_zeros() as usize;
-                for i in (0..last).filter(|i| mask & (1 << i) != 0) {
-                    stack.push(node.child[i]);
-                }
-                current = node.child[last];
-                continue;
-            }
-        } else {
-            let count = leaf_count(current);
-            work.items += count as u64;
-            if leaves.any(leaf_first(current), count, t_max) {
-                return true;
-            }
-        }
-        match stack.pop() {
-            Some(next) => current = next,
-            None => return false,
         }
     }
 }
