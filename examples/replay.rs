@@ -22,7 +22,7 @@ use std::path::Path;
 use std::process::ExitCode;
 use std::time::Instant;
 
-use hybrid::accel::{BackendConfig, TraceCounters};
+use hybrid::accel::{BackendConfig, Coherence, TraceCounters};
 use hybrid::bench::{file, file_name, scene_of};
 use hybrid::geom::Ray;
 use hybrid::measure::trace_counted;
@@ -92,7 +92,8 @@ fn main() -> ExitCode {
         for _ in 0..passes {
             counters = TraceCounters::default();
             let start = Instant::now();
-            hits = trace_counted(&native, &rays, query, packets, &mut counters);
+            let batched = packets.then_some(Coherence::Incoherent);
+            hits = trace_counted(&native, &rays, query, batched, &mut counters);
             best = best.min(start.elapsed().as_secs_f64());
         }
         let n = rays.len() as f64;

@@ -10,7 +10,7 @@ use super::embree::{
 use super::native::build::BuildMethod;
 use super::native::triangle::TriangleMode;
 use super::native::{NativeBvh, NativeOptions};
-use super::{brute, Accel, AccelError, AccelStats, TraceCounters};
+use super::{brute, Accel, AccelError, AccelStats, Coherence, TraceCounters};
 use crate::choice::Choice;
 use crate::geom::{Hit, Ray};
 use crate::scene::Scene;
@@ -45,12 +45,18 @@ impl Accel for Backend<'_> {
         }
     }
 
-    fn closest_hits(&self, rays: &[Ray], out: &mut [Option<Hit>], counters: &mut TraceCounters) {
+    fn closest_hits(
+        &self,
+        rays: &[Ray],
+        coherence: Coherence,
+        out: &mut [Option<Hit>],
+        counters: &mut TraceCounters,
+    ) {
         match self {
-            Backend::Native(a) => a.closest_hits(rays, out, counters),
-            Backend::Embree3(a) => a.closest_hits(rays, out, counters),
-            Backend::Embree4(a) => a.closest_hits(rays, out, counters),
-            Backend::Brute(a) => a.closest_hits(rays, out, counters),
+            Backend::Native(a) => a.closest_hits(rays, coherence, out, counters),
+            Backend::Embree3(a) => a.closest_hits(rays, coherence, out, counters),
+            Backend::Embree4(a) => a.closest_hits(rays, coherence, out, counters),
+            Backend::Brute(a) => a.closest_hits(rays, coherence, out, counters),
         }
     }
 

@@ -94,6 +94,17 @@ impl AccelStats {
     }
 }
 
+/// How alike the rays of a batch are, as the caller knows them: a hint
+/// some backends take (Embree's coherent flag, made for camera rays);
+/// the answers never depend on it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Coherence {
+    /// Rays from one point through neighbouring pixels: camera rays.
+    Coherent,
+    /// Anything else: bounces, shadow rays, a wave's rays.
+    Incoherent,
+}
+
 /// The three queries an integrator may ask (pbrt-v4's aggregate interface).
 pub trait Accel: Sync + Send {
     /// The closest hit in `[ray.t_min, ray.t_max]`, if any.
@@ -103,8 +114,16 @@ pub trait Accel: Sync + Send {
     /// The closest hits of a batch of rays, answer `i` into `out[i]` (the
     /// caller's buffer, as long as `rays`; no allocation per call): the
     /// same answers as [`Accel::closest_hit`], through the backend's
-    /// batched mode where it has one (native and Embree: packets).
-    fn closest_hits(&self, rays: &[Ray], out: &mut [Option<Hit>], counters: &mut TraceCounters) {
+    /// batched mode where it has one (native and Embree: packets), told
+    /// how alike the rays are.
+    fn closest_hits(
+        &self,
+        rays: &[Ray],
+        coherence: Coherence,
+        out: &mut [Option<Hit>],
+        counters: &mut TraceCounters,
+    ) {
+        let _ = coherence;
         debug_assert_eq!(rays.len(), out.len());
         for (ray, answer) in rays.iter().zip(out) {
             *answer = self.closest_hit(ray, counters);

@@ -9,7 +9,7 @@ use std::sync::Mutex;
 
 use glam::Vec3;
 
-use crate::accel::{Accel, AccelStats, Backend, TraceCounters};
+use crate::accel::{Accel, AccelStats, Backend, Coherence, TraceCounters};
 use crate::geom::{Hit, Ray};
 use crate::measure::Query;
 use crate::render::integrator::{PathSettings, Shading};
@@ -50,12 +50,18 @@ impl Accel for Recorder<'_> {
     fn occluded(&self, ray: &Ray, counters: &mut TraceCounters) -> bool {
         self.inner.occluded(ray, counters)
     }
-    fn closest_hits(&self, rays: &[Ray], out: &mut [Option<Hit>], counters: &mut TraceCounters) {
+    fn closest_hits(
+        &self,
+        rays: &[Ray],
+        coherence: Coherence,
+        out: &mut [Option<Hit>],
+        counters: &mut TraceCounters,
+    ) {
         self.keep(
             &self.bounce,
             rays.iter().filter(|r| r.origin != self.eye).copied(),
         );
-        self.inner.closest_hits(rays, out, counters)
+        self.inner.closest_hits(rays, coherence, out, counters)
     }
     fn occluded_all(&self, rays: &[Ray], out: &mut [bool], counters: &mut TraceCounters) {
         self.keep(&self.shadow, rays.iter().copied());

@@ -10,7 +10,7 @@ use std::time::Instant;
 
 use rayon::prelude::*;
 
-use crate::accel::{Accel, TraceCounters};
+use crate::accel::{Accel, Coherence, TraceCounters};
 use crate::geom::Ray;
 use crate::parity::rays;
 use crate::scene::Scene;
@@ -115,7 +115,7 @@ pub enum Query {
 /// be optimized away).
 pub fn trace_all<A: Accel>(accel: &A, rays: &[Ray], query: Query, threads: usize) -> usize {
     let chunk =
-        |rays: &[Ray]| trace_counted(accel, rays, query, false, &mut TraceCounters::default());
+        |rays: &[Ray]| trace_counted(accel, rays, query, None, &mut TraceCounters::default());
     if threads <= 1 {
         return chunk(rays);
     }
@@ -128,10 +128,24 @@ pub fn trace_all<A: Accel>(accel: &A, rays: &[Ray], query: Query, threads: usize
 
 /// As [`trace_all`], through the backend's batch queries
 /// ([`Accel::closest_hits`], [`Accel::occluded_all`]) [`BATCH`] rays at a
-/// time, answers into buffers on the stack.
-pub fn trace_all_batched<A: Accel>(accel: &A, rays: &[Ray], query: Query, threads: usize) -> usize {
-    let chunk =
-        |rays: &[Ray]| trace_counted(accel, rays, query, true, &mut TraceCounters::default());
+/// time, answers into buffers on the stack, closest hits with the
+/// `coherence` hint ([`coherence_of`] the rays' kind).
+pub fn trace_all_batched<A: Accel>(
+    accel: &A,
+    rays: &[Ray],
+    query: Query,
+    coherence: Coherence,
+    threads: usize,
+) -> usize {
+    let chunk = |rays: &[Ray]| {
+        trace_counted(
+            accel,
+            rays,
+            query,
+            Some(coherence),
+            &mut TraceCounters::default(),
+        )
+    };
     if threads <= 1 {
         return chunk(rays);
     }
@@ -141,8 +155,9 @@ pub fn trace_all_batched<A: Accel>(accel: &A, rays: &[Ray], query: Query, thread
 /// Rays per call of the batch queries in the batched measurements.
 pub const BATCH: usize = 256;
 
-/// `rays` traced on the calling thread, one query per ray or (`batched`)
-/// through the backend's batch queries [`BATCH`] at a time: how many hit
+/// `rays` traced on the calling thread, one query per ray or (`batched`,
+/// with its coherence hint) through the backend's batch queries [`BATCH`]
+/// at a time: how many hit
 /// (or are blocked), the work added to `counters`. The loop every trace
 /// measurement times.
 #[inline]
@@ -150,24 +165,24 @@ pub fn trace_counted<A: Accel>(
     accel: &A,
     rays: &[Ray],
     query: Query,
-    batched: bool,
+    batched: Option<Coherence>,
     counters: &mut TraceCounters,
 ) -> usize {
     match (batched, query) {
-        (false, Query::Closest) => rays
+        (None, Query::Closest) => rays
             .iter()
             .filter(|r| accel.closest_hit(r, counters).is_some())
             .count(),
-        (false, Query::Occluded) => rays.iter().filter(|r| accel.occluded(r, counters)).count(),
-        (true, Query::Closest) => rays
+        (None, Query::Occluded) => rays.iter().filter(|r| accel.occluded(r, counters)).count(),
+        (Some(coherence), Query::Closest) => rays
             .chunks(BATCH)
             .map(|rays| {
                 let out = &mut [None; BATCH][..rays.len()];
-                accel.closest_hits(rays, out, counters);
+                accel.closest_hits(rays, coherence, out, counters);
                 out.iter().filter(|h| h.is_some()).count()
             })
             .sum(),
-        (true, Query::Occluded) => rays
+        (Some(_), Query::Occluded) => rays
             .chunks(BATCH)
             .map(|rays| {
                 let out = &mut [false; BATCH][..rays.len()];
@@ -431,6 +446,16 @@ pub struct RaySet {
     pub kind: &'static str,
     pub query: Query,
     pub rays: Vec<Ray>,
+}
+
+/// How alike a kind's rays are ([`RAY_KINDS`], the wave kinds): camera
+/// rays are coherent, the others not.
+pub fn coherence_of(kind: &str) -> Coherence {
+    if kind.starts_with("camera") {
+        Coherence::Coherent
+    } else {
+        Coherence::Incoherent
+    }
 }
 
 /// The ray kinds of [`ray_sets`], in its order (the files of `hybrid rays

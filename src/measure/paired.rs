@@ -5,8 +5,8 @@
 //! ([`Settle`]). `hybrid bench` and the report's trace tables both use it.
 
 use super::{
-    paired_ratio, thread_cpu_seconds, time_interleaved_samples_by, time_settled, trace_all,
-    trace_all_batched, Measured, Pass, Query, Settle, Settled,
+    coherence_of, paired_ratio, thread_cpu_seconds, time_interleaved_samples_by, time_settled,
+    trace_all, trace_all_batched, Measured, Pass, Query, Settle, Settled,
 };
 use crate::accel::config::Backend;
 use crate::accel::embree::PlainC;
@@ -204,7 +204,7 @@ pub fn compare_batched(
         let (flat, rays) = (pass.part(flat), pass.part(&rays));
         let n = match mode {
             Mode::Single => trace_all(accel, rays, query, 1),
-            Mode::Batch => trace_all_batched(accel, rays, query, 1),
+            Mode::Batch => trace_all_batched(accel, rays, query, coherence_of(kind), 1),
             Mode::C(batch) => {
                 let library = accel
                     .plain_c()

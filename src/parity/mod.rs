@@ -12,7 +12,7 @@ pub mod rays;
 use glam::Vec3;
 
 use crate::accel::config::{parity_candidates, PARITY_REFERENCE};
-use crate::accel::{Accel, AccelError, Backend, BackendConfig, TraceCounters};
+use crate::accel::{Accel, AccelError, Backend, BackendConfig, Coherence, TraceCounters};
 use crate::geom::{Hit, Ray};
 use crate::scene::Scene;
 
@@ -181,9 +181,12 @@ pub fn compare(
     let mut worst_dt = 0.0f32;
     let trace = |accel: &Backend, r: &Ray| accel.closest_hit(r, &mut TraceCounters::default());
     let mut batch = vec![None; rays.len()];
-    candidate
-        .accel
-        .closest_hits(rays, &mut batch, &mut TraceCounters::default());
+    candidate.accel.closest_hits(
+        rays,
+        Coherence::Incoherent,
+        &mut batch,
+        &mut TraceCounters::default(),
+    );
     for (ray, in_batch) in rays.iter().zip(&batch) {
         let (x, y): (Option<Hit>, Option<Hit>) =
             (trace(&reference.accel, ray), trace(&candidate.accel, ray));

@@ -10,7 +10,7 @@
 use glam::Vec3;
 
 use super::integrator::{Integrator, PathState, ShadowTape};
-use crate::accel::{Accel, TraceCounters};
+use crate::accel::{Accel, Coherence, TraceCounters};
 use crate::geom::sampling::Rng;
 use crate::geom::{Hit, Ray};
 
@@ -73,7 +73,12 @@ impl<'s> Wave<'s> {
                 *hit = accel.closest_hit(ray, counters);
             }
         } else {
-            accel.closest_hits(camera_rays, &mut self.hits[..n], counters);
+            accel.closest_hits(
+                camera_rays,
+                Coherence::Coherent,
+                &mut self.hits[..n],
+                counters,
+            );
         }
         if batching != Batching::Waves {
             for ((ray, stream), &hit) in camera_rays.iter().zip(streams).zip(&self.hits) {
@@ -104,7 +109,12 @@ impl<'s> Wave<'s> {
             }
             let m = self.rays.len();
             self.hits.resize(m, None);
-            accel.closest_hits(&self.rays, &mut self.hits[..m], counters);
+            accel.closest_hits(
+                &self.rays,
+                Coherence::Incoherent,
+                &mut self.hits[..m],
+                counters,
+            );
             self.tape.clear();
             for (&k, &hit) in self.moving.iter().zip(&self.hits) {
                 let (state, stream) = (&mut self.states[k as usize], &mut streams[k as usize]);

@@ -13,9 +13,9 @@ use crate::geom::ray::FlatRay;
 use crate::geom::Ray;
 use crate::measure::paired::{compare, compare_batched, PairedRow};
 use crate::measure::{
-    mrays_interleaved, on_threads, paired_ratio, process_cpu_seconds, ray_sets, time_interleaved,
-    time_interleaved_samples, time_repeats, time_repeats_by, trace_all, trace_all_batched,
-    Measured,
+    coherence_of, mrays_interleaved, on_threads, paired_ratio, process_cpu_seconds, ray_sets,
+    time_interleaved, time_interleaved_samples, time_repeats, time_repeats_by, trace_all,
+    trace_all_batched, Measured,
 };
 use crate::render::integrator::{PathSettings, Shading};
 use crate::render::{render, Batching, RenderSettings, Silent};
@@ -295,7 +295,7 @@ pub fn measure(
                     if i % 2 == 0 {
                         trace_all(b, &set.rays, set.query, threads)
                     } else {
-                        trace_all_batched(b, &set.rays, set.query, threads)
+                        trace_all_batched(b, &set.rays, set.query, coherence_of(set.kind), threads)
                     }
                 })
             });

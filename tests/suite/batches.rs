@@ -8,8 +8,9 @@
 use std::sync::atomic::{AtomicU64, Ordering};
 
 use hybrid::accel::native::NativeOptions;
-use hybrid::accel::{Accel, BackendConfig, TraceCounters};
+use hybrid::accel::{Accel, BackendConfig, Coherence, TraceCounters};
 use hybrid::geom::{Hit, Ray};
+use hybrid::measure::coherence_of;
 use hybrid::parity::batch_agrees;
 use hybrid::parity::rays::{
     bounce_rays, camera_rays, incoherent_rays, occlusion_rays, shadow_rays,
@@ -63,7 +64,23 @@ fn check(scene_name: &str, config: BackendConfig, scene: &Scene) {
             .collect();
         let mut batch_counters = TraceCounters::default();
         let mut hits = vec![None; rays.len()];
-        accel.closest_hits(&rays, &mut hits, &mut batch_counters);
+        accel.closest_hits(&rays, coherence_of(kind), &mut hits, &mut batch_counters);
+        // The hint picks kernels (Embree's coherent path), never answers.
+        let other = match coherence_of(kind) {
+            Coherence::Coherent => Coherence::Incoherent,
+            Coherence::Incoherent => Coherence::Coherent,
+        };
+        let mut hinted = vec![None; rays.len()];
+        accel.closest_hits(&rays, other, &mut hinted, &mut TraceCounters::default());
+        let hint_differs = (0..rays.len())
+            .filter(|&i| !batch_agrees(single[i], hinted[i], exact, scene_size))
+            .count();
+        assert_eq!(
+            hint_differs,
+            0,
+            "{scene_name} {kind} {}: with the {other:?} hint {hint_differs} closest hits differ",
+            config.label()
+        );
         // Camera rays go as packets (one interval test per node for eight
         // rays), and so do the light rays' occlusion queries (one light,
         // origins side by side): the node tests counted fall well below
@@ -126,7 +143,12 @@ fn box_tests(accel: &impl Accel, rays: &[Ray], occlusion: bool) -> (u64, u64) {
         for r in rays {
             accel.closest_hit(r, &mut alone);
         }
-        accel.closest_hits(rays, &mut vec![None; rays.len()], &mut batch);
+        accel.closest_hits(
+            rays,
+            Coherence::Coherent,
+            &mut vec![None; rays.len()],
+            &mut batch,
+        );
     }
     (alone.box_tests, batch.box_tests)
 }
@@ -200,9 +222,15 @@ impl<A: Accel> Accel for Batches<'_, A> {
         self.counts[2].fetch_add(1, Ordering::Relaxed);
         self.inner.occluded(ray, counters)
     }
-    fn closest_hits(&self, rays: &[Ray], out: &mut [Option<Hit>], counters: &mut TraceCounters) {
+    fn closest_hits(
+        &self,
+        rays: &[Ray],
+        coherence: Coherence,
+        out: &mut [Option<Hit>],
+        counters: &mut TraceCounters,
+    ) {
         self.counts[0].fetch_add(rays.len() as u64, Ordering::Relaxed);
-        self.inner.closest_hits(rays, out, counters)
+        self.inner.closest_hits(rays, coherence, out, counters)
     }
     fn occluded_all(&self, rays: &[Ray], out: &mut [bool], counters: &mut TraceCounters) {
         self.counts[1].fetch_add(rays.len() as u64, Ordering::Relaxed);
@@ -448,7 +476,12 @@ fn packets_meet_ties_and_the_root_box_as_single_rays() {
             .map(|r| accel.closest_hit(r, &mut TraceCounters::default()))
             .collect();
         let mut batch = vec![None; rays.len()];
-        accel.closest_hits(&rays, &mut batch, &mut TraceCounters::default());
+        accel.closest_hits(
+            &rays,
+            Coherence::Coherent,
+            &mut batch,
+            &mut TraceCounters::default(),
+        );
         for k in 0..rays.len() {
             assert!(
                 batch_agrees(single[k], batch[k], true, 1.0),

@@ -5,7 +5,7 @@
 use hybrid::accel::embree::{invalid_buffer_error, BuildQuality, EmbreeOptions, EmbreeVersion};
 use hybrid::accel::native::{NativeBvh, NativeOptions};
 use hybrid::accel::BackendConfig;
-use hybrid::accel::{Accel, AccelError, TraceCounters};
+use hybrid::accel::{Accel, AccelError, Coherence, TraceCounters};
 use hybrid::choice::Choice;
 use hybrid::geom::Ray;
 use hybrid::parity::rays;
@@ -273,7 +273,12 @@ fn batch_answers_like_single_rays(version: EmbreeVersion) {
     let mut set = rays::camera_rays(&scene, 5_000, 4);
     set.push(Ray::new(glam::Vec3::splat(f32::NAN), glam::Vec3::Z));
     let mut stream = vec![None; set.len()];
-    embree.closest_hits(&set, &mut stream, &mut TraceCounters::default());
+    embree.closest_hits(
+        &set,
+        Coherence::Coherent,
+        &mut stream,
+        &mut TraceCounters::default(),
+    );
     assert_eq!(stream.len(), set.len());
     // Embree's packet path runs other kernels than rtcIntersect1,
     // so t may differ in the last bits; answers must agree as the parity

@@ -37,7 +37,7 @@ use self::node::{Node8, MAX_LEAF_FIRST};
 use self::traverse::BoxTest;
 use self::tree::{Tree, MAX_DEPTH};
 use self::triangle::{TriangleBlock4, TriangleMode, TriangleTest, Watertight};
-use super::{Accel, AccelError, AccelStats, TraceCounters, TreeFacts};
+use super::{Accel, AccelError, AccelStats, Coherence, TraceCounters, TreeFacts};
 use crate::choice::Choice;
 use crate::geom::{Bounds, Hit, Ray};
 use crate::scene::Scene;
@@ -344,8 +344,16 @@ impl Accel for NativeBvh {
     }
 
     /// Packets of sixteen rays (AVX-512) or eight (AVX2); one at a time
-    /// without them.
-    fn closest_hits(&self, rays: &[Ray], out: &mut [Option<Hit>], counters: &mut TraceCounters) {
+    /// without them. The packets find their own coherence (an octant's
+    /// rays), so the hint is not needed.
+    fn closest_hits(
+        &self,
+        rays: &[Ray],
+        coherence: Coherence,
+        out: &mut [Option<Hit>],
+        counters: &mut TraceCounters,
+    ) {
+        let _ = coherence;
         debug_assert_eq!(rays.len(), out.len());
         #[cfg(target_arch = "x86_64")]
         if self.batch::<batch::Closest>(rays, out, counters).is_some() {
