@@ -24,25 +24,28 @@ pub enum Backend<'s> {
     Brute(brute::BruteForce),
 }
 
+/// `$call` on whichever backend `$backend` holds, bound to `$a`: the
+/// dispatch written once for every query.
+macro_rules! on_backend {
+    ($backend:expr, $a:ident => $call:expr) => {
+        match $backend {
+            Backend::Native($a) => $call,
+            Backend::Embree3($a) => $call,
+            Backend::Embree4($a) => $call,
+            Backend::Brute($a) => $call,
+        }
+    };
+}
+
 impl Accel for Backend<'_> {
     #[inline]
     fn closest_hit(&self, ray: &Ray, counters: &mut TraceCounters) -> Option<Hit> {
-        match self {
-            Backend::Native(a) => a.closest_hit(ray, counters),
-            Backend::Embree3(a) => a.closest_hit(ray, counters),
-            Backend::Embree4(a) => a.closest_hit(ray, counters),
-            Backend::Brute(a) => a.closest_hit(ray, counters),
-        }
+        on_backend!(self, a => a.closest_hit(ray, counters))
     }
 
     #[inline]
     fn occluded(&self, ray: &Ray, counters: &mut TraceCounters) -> bool {
-        match self {
-            Backend::Native(a) => a.occluded(ray, counters),
-            Backend::Embree3(a) => a.occluded(ray, counters),
-            Backend::Embree4(a) => a.occluded(ray, counters),
-            Backend::Brute(a) => a.occluded(ray, counters),
-        }
+        on_backend!(self, a => a.occluded(ray, counters))
     }
 
     fn closest_hits(
@@ -52,30 +55,15 @@ impl Accel for Backend<'_> {
         out: &mut [Option<Hit>],
         counters: &mut TraceCounters,
     ) {
-        match self {
-            Backend::Native(a) => a.closest_hits(rays, coherence, out, counters),
-            Backend::Embree3(a) => a.closest_hits(rays, coherence, out, counters),
-            Backend::Embree4(a) => a.closest_hits(rays, coherence, out, counters),
-            Backend::Brute(a) => a.closest_hits(rays, coherence, out, counters),
-        }
+        on_backend!(self, a => a.closest_hits(rays, coherence, out, counters))
     }
 
     fn occluded_all(&self, rays: &[Ray], out: &mut [bool], counters: &mut TraceCounters) {
-        match self {
-            Backend::Native(a) => a.occluded_all(rays, out, counters),
-            Backend::Embree3(a) => a.occluded_all(rays, out, counters),
-            Backend::Embree4(a) => a.occluded_all(rays, out, counters),
-            Backend::Brute(a) => a.occluded_all(rays, out, counters),
-        }
+        on_backend!(self, a => a.occluded_all(rays, out, counters))
     }
 
     fn stats(&self) -> AccelStats {
-        match self {
-            Backend::Native(a) => a.stats(),
-            Backend::Embree3(a) => a.stats(),
-            Backend::Embree4(a) => a.stats(),
-            Backend::Brute(a) => a.stats(),
-        }
+        on_backend!(self, a => a.stats())
     }
 }
 
@@ -88,6 +76,66 @@ impl Backend<'_> {
             Backend::Embree3(a) => Some(a),
             Backend::Embree4(a) => Some(a),
             Backend::Native(_) | Backend::Brute(_) => None,
+        }
+    }
+}
+
+/// The backends as `--accel` spells them, each name written once (Embree's
+/// versions by [`EmbreeVersion`]'s names): the CLI parses these, and every
+/// label begins with one.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum BackendKind {
+    Native,
+    /// The newest Embree present: 4 when it loads, else 3.
+    Embree,
+    Embree3,
+    Embree4,
+    /// Brute force: every primitive for every ray.
+    None,
+}
+
+impl Choice for BackendKind {
+    const ALL: &'static [Self] = &[
+        BackendKind::Native,
+        BackendKind::Embree,
+        BackendKind::Embree3,
+        BackendKind::Embree4,
+        BackendKind::None,
+    ];
+    fn name(self) -> &'static str {
+        match self {
+            BackendKind::Native => "native",
+            BackendKind::Embree => "embree",
+            BackendKind::Embree3 => EmbreeVersion::V3.name(),
+            BackendKind::Embree4 => EmbreeVersion::V4.name(),
+            BackendKind::None => "none",
+        }
+    }
+}
+
+impl BackendKind {
+    /// The kind of `config` (an Embree by its version).
+    pub fn of(config: &BackendConfig) -> BackendKind {
+        match config {
+            BackendConfig::Native(_) => BackendKind::Native,
+            BackendConfig::Embree(o) => match o.version {
+                EmbreeVersion::V3 => BackendKind::Embree3,
+                EmbreeVersion::V4 => BackendKind::Embree4,
+            },
+            BackendConfig::Brute => BackendKind::None,
+        }
+    }
+
+    /// This backend with `native`'s or `embree`'s options (whose version
+    /// this kind decides).
+    pub fn configure(self, native: NativeOptions, embree: EmbreeOptions) -> BackendConfig {
+        let embree_of = |version| BackendConfig::Embree(EmbreeOptions { version, ..embree });
+        match self {
+            BackendKind::Native => BackendConfig::Native(native),
+            BackendKind::Embree => embree_of(EmbreeVersion::newest()),
+            BackendKind::Embree3 => embree_of(EmbreeVersion::V3),
+            BackendKind::Embree4 => embree_of(EmbreeVersion::V4),
+            BackendKind::None => BackendConfig::Brute,
         }
     }
 }
@@ -161,13 +209,9 @@ impl BackendConfig {
     }
     pub const BRUTE: BackendConfig = BackendConfig::Brute;
 
-    /// The backend's name as `--accel` spells it.
+    /// The backend's name as `--accel` spells it ([`BackendKind`]).
     pub fn kind(&self) -> &'static str {
-        match self {
-            BackendConfig::Native(_) => "native",
-            BackendConfig::Embree(o) => o.version.name(),
-            BackendConfig::Brute => "none",
-        }
+        BackendKind::of(self).name()
     }
 
     /// `Ok` when the backend can be built on this machine (its library

@@ -8,7 +8,8 @@ use clap::Args;
 
 use super::choice;
 use super::progress::Bar;
-use crate::accel::embree::{BuildQuality, EmbreeOptions, EmbreeVersion};
+use crate::accel::config::BackendKind;
+use crate::accel::embree::{BuildQuality, EmbreeOptions};
 use crate::accel::native::build::BuildMethod;
 use crate::accel::native::triangle::TriangleMode;
 use crate::accel::native::NativeOptions;
@@ -21,24 +22,15 @@ use crate::render::{render, Batching, RenderOutput, RenderSettings};
 use crate::scene::environment::{EnvSampling, Environment};
 use crate::scene::NormalMode;
 
-/// `--accel`: which backend; its options come from the backend's own flags.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
-pub enum AccelArg {
-    Native,
-    /// The newest Embree present: 4 when it loads, else 3.
-    Embree,
-    Embree3,
-    Embree4,
-    None,
-}
-
 #[derive(Args, Debug, Clone)]
 pub struct RenderArgs {
     #[command(flatten)]
     pub input: super::SceneInput,
-    /// Acceleration backend.
-    #[arg(long, value_enum, default_value_t = AccelArg::Native)]
-    pub accel: AccelArg,
+    /// Acceleration backend (`embree`: the newest present, 4 when it
+    /// loads, else 3; `none`: brute force); its options come from its own
+    /// flags.
+    #[arg(long, value_parser = choice::<BackendKind>(), default_value = BackendKind::Native.name())]
+    pub accel: BackendKind,
     /// Colour by the shading normal (n * 0.5 + 0.5) instead of path tracing.
     #[arg(long)]
     pub normals: bool,
@@ -261,28 +253,20 @@ impl RenderArgs {
     /// The backend `--accel` chose, with its own flags; native's batches
     /// in packets of [`RENDER_PACKET_LANES`].
     pub fn backend(&self) -> BackendConfig {
-        match self.accel {
-            AccelArg::Native => BackendConfig::Native(NativeOptions {
-                triangle: self.triangle,
-                method: self.build,
-                max_leaf: self.leaf,
-                simd: !self.scalar,
-                packet_lanes: RENDER_PACKET_LANES,
-            }),
-            AccelArg::Embree | AccelArg::Embree3 | AccelArg::Embree4 => {
-                BackendConfig::Embree(EmbreeOptions {
-                    version: match self.accel {
-                        AccelArg::Embree3 => EmbreeVersion::V3,
-                        AccelArg::Embree4 => EmbreeVersion::V4,
-                        _ => EmbreeVersion::newest(),
-                    },
-                    quality: self.quality,
-                    robust: self.robust,
-                    threads: self.threads,
-                })
-            }
-            AccelArg::None => BackendConfig::Brute,
-        }
+        let native = NativeOptions {
+            triangle: self.triangle,
+            method: self.build,
+            max_leaf: self.leaf,
+            simd: !self.scalar,
+            packet_lanes: RENDER_PACKET_LANES,
+        };
+        let embree = EmbreeOptions {
+            quality: self.quality,
+            robust: self.robust,
+            threads: self.threads,
+            ..EmbreeOptions::DEFAULT
+        };
+        self.accel.configure(native, embree)
     }
 
     /// PNG tone map of `film`: the reference renders', exposed as
