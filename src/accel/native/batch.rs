@@ -194,9 +194,25 @@ impl Query for Closest {
             let found = if rooted.mask == 0 {
                 0
             } else if test == BoxTest::Fast && rooted.fast_test_fits() {
-                packet::closest::<W, false, _>(tree, &rooted, t, l, &mut alone, work, SINGLE_BELOW)
+                packet::walk::<W, false, false, _>(
+                    tree,
+                    &rooted,
+                    t,
+                    l,
+                    &mut alone,
+                    work,
+                    SINGLE_BELOW,
+                )
             } else {
-                packet::closest::<W, true, _>(tree, &rooted, t, l, &mut alone, work, SINGLE_BELOW)
+                packet::walk::<W, true, false, _>(
+                    tree,
+                    &rooted,
+                    t,
+                    l,
+                    &mut alone,
+                    work,
+                    SINGLE_BELOW,
+                )
             };
             // Without spheres a miss is one store, and no lane's branch depends
             // on whether it hit.
@@ -310,30 +326,47 @@ impl Query for Occluded {
         // enabled (a detected token chose this code) and the tree was checked by
         // `Tree::new`, so every node reference read from it is in range.
         unsafe {
-            let t_max = p.rays.t_max();
+            let mut t_max = p.rays.t_max();
             let (tree, test, cpu) = (&bvh.triangles, bvh.box_test, bvh.cpu);
-            let mut alone = |_: &mut BlockPacket<W>, i: usize, start, t: f32, work: &mut Work| {
-                let mut one = BlockLeaves {
-                    blocks,
-                    ray: &rays[i],
-                    best: None,
+            let mut alone =
+                |_: &mut BlockPacket<W>, i: usize, start, t: &mut f32, work: &mut Work| {
+                    let mut one = BlockLeaves {
+                        blocks,
+                        ray: &rays[i],
+                        best: None,
+                    };
+                    let box_ray = box_ray_of(&rays[i]);
+                    traverse::any(tree, &box_ray, *t, &mut one, cpu, test, work, start)
                 };
-                let box_ray = box_ray_of(&rays[i]);
-                traverse::any(tree, &box_ray, t, &mut one, cpu, test, work, start)
-            };
             let mut leaves = BlockPacket::new(blocks, p.rays);
             // The rays that miss the root box meet no triangle, as alone.
             let rooted = Packet {
                 rays: p.rays,
                 mask: p.mask & p.rays.enters(tree.bounds(), W::load(&t_max)),
             };
-            let l = &mut leaves;
+            let (t, l) = (&mut t_max, &mut leaves);
             let blocked = if rooted.mask == 0 {
                 0
             } else if test == BoxTest::Fast && rooted.fast_test_fits() {
-                packet::any::<W, false, _>(tree, &rooted, &t_max, l, &mut alone, work, SINGLE_BELOW)
+                packet::walk::<W, false, true, _>(
+                    tree,
+                    &rooted,
+                    t,
+                    l,
+                    &mut alone,
+                    work,
+                    SINGLE_BELOW,
+                )
             } else {
-                packet::any::<W, true, _>(tree, &rooted, &t_max, l, &mut alone, work, SINGLE_BELOW)
+                packet::walk::<W, true, true, _>(
+                    tree,
+                    &rooted,
+                    t,
+                    l,
+                    &mut alone,
+                    work,
+                    SINGLE_BELOW,
+                )
             };
             for i in lanes_of(p.mask) {
                 out[i] = blocked & (1 << i) != 0

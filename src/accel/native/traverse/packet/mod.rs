@@ -283,18 +283,23 @@ fn bits(mut mask: u32) -> impl Iterator<Item = usize> {
     })
 }
 
-/// Closest hits of the packet's rays: shrinks each lane's `t_max` to its
-/// hit; returns the lanes that hit. `leaves` tests the packet's leaves;
+/// The packet's walk: closest hits (`ANY` false: children in the octant's
+/// order, farthest pushed first with their entry distances; each lane's
+/// `t_max` shrinks to its hit; returns the lanes that hit) or any hits
+/// (`ANY` true: children in slot order, smallest box last, so first off
+/// the stack, as single-ray any hit; a ray leaves the packet at its first
+/// hit; returns the blocked lanes). `leaves` tests the packet's leaves;
 /// `single(leaves, i, start, t_max, work)` traces ray `i` alone from
-/// `start` (the single-ray kernel with ray `i`'s leaf test, leaving its
-/// hit where `leaves` keeps lane `i`'s).
+/// `start` (the single-ray kernel with ray `i`'s leaf test, leaving a
+/// closest hit where `leaves` keeps lane `i`'s) and says whether it hit.
+/// One walk for both queries, the choice made at compile time.
 ///
 /// # Safety
 /// Only from `W`'s `#[target_feature]` code ([`Width`]), which also has
 /// AVX2 and FMA; `tree` is not empty.
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
-pub unsafe fn closest<W: Width, const ROBUST: bool, P: PacketLeaves<W>>(
+pub unsafe fn walk<W: Width, const ROBUST: bool, const ANY: bool, P: PacketLeaves<W>>(
     tree: &Tree,
     packet: &Packet<W>,
     t_max: &mut [f32; MAX_LANES],
@@ -316,10 +321,13 @@ pub unsafe fn closest<W: Width, const ROBUST: bool, P: PacketLeaves<W>>(
         let mut dists = AlignedStack::<f32>::new();
         let (refs, masks, dists) = (refs.as_mut_ptr(), masks.as_mut_ptr(), dists.as_mut_ptr());
         let mut top = 0usize;
-        let mut t_lanes = masked_t_max::<W>(t_max, packet.mask);
-        let mut far = W::max_of(t_lanes, packet.mask);
+        // The lanes still walking: every lane for closest hits, the lanes
+        // not yet blocked for any hit.
+        let mut live = packet.mask;
+        let mut t_lanes = masked_t_max::<W>(t_max, live);
+        let mut far = W::max_of(t_lanes, live);
         let mut current: ChildRef = 0;
-        let mut mask = packet.mask;
+        let mut mask = live;
         let mut hits = 0u32;
         loop {
             if !is_leaf(current) {
@@ -328,26 +336,31 @@ pub unsafe fn closest<W: Width, const ROBUST: bool, P: PacketLeaves<W>>(
                 work.nodes += 1;
                 let (near, passed) = interval_slab::<ROBUST>(node, &ia, &rows, _mm256_set1_ps(far));
                 if passed != 0 {
-                    // The passed children in the octant's order, farthest
-                    // first: place `p` holds child `order[p] >> shift & 7`.
-                    let order = _mm256_and_si256(
-                        _mm256_srl_epi32(_mm256_load_si256(node.order.as_ptr().cast()), shift),
-                        _mm256_set1_epi32(7),
-                    );
-                    let hit_v = _mm256_castsi256_ps(_mm256_cmpgt_epi32(
-                        _mm256_and_si256(
-                            _mm256_set1_epi32(passed as i32),
-                            _mm256_sllv_epi32(_mm256_set1_epi32(1), order),
-                        ),
-                        _mm256_setzero_si256(),
-                    ));
-                    let sorted = _mm256_movemask_ps(hit_v) as u32;
                     let mut places = [0u32; WIDTH];
-                    _mm256_storeu_si256(places.as_mut_ptr().cast(), order);
                     let mut near_of = [0f32; WIDTH];
-                    _mm256_storeu_ps(near_of.as_mut_ptr(), near);
-                    for place in bits(sorted) {
-                        let c = places[place] as usize;
+                    let visit = if ANY {
+                        passed
+                    } else {
+                        // The passed children in the octant's order,
+                        // farthest first: place `p` holds child
+                        // `order[p] >> shift & 7`.
+                        let order = _mm256_and_si256(
+                            _mm256_srl_epi32(_mm256_load_si256(node.order.as_ptr().cast()), shift),
+                            _mm256_set1_epi32(7),
+                        );
+                        let hit_v = _mm256_castsi256_ps(_mm256_cmpgt_epi32(
+                            _mm256_and_si256(
+                                _mm256_set1_epi32(passed as i32),
+                                _mm256_sllv_epi32(_mm256_set1_epi32(1), order),
+                            ),
+                            _mm256_setzero_si256(),
+                        ));
+                        _mm256_storeu_si256(places.as_mut_ptr().cast(), order);
+                        _mm256_storeu_ps(near_of.as_mut_ptr(), near);
+                        _mm256_movemask_ps(hit_v) as u32
+                    };
+                    for place in bits(visit) {
+                        let c = if ANY { place } else { places[place] as usize };
                         let entering =
                             lane_slab::<W, ROBUST>(node, c, lanes, &rows, t_lanes) & mask;
                         if entering == 0 {
@@ -360,24 +373,42 @@ pub unsafe fn closest<W: Width, const ROBUST: bool, P: PacketLeaves<W>>(
                                     hits |= 1 << i;
                                 }
                             }
-                            t_lanes = masked_t_max::<W>(t_max, packet.mask);
-                            far = W::max_of(t_lanes, packet.mask);
+                            if ANY {
+                                live &= !hits;
+                                if live == 0 {
+                                    return packet.mask;
+                                }
+                                mask &= live;
+                            }
+                            t_lanes = masked_t_max::<W>(t_max, live);
+                            far = W::max_of(t_lanes, live);
                             continue;
                         }
-                        // SAFETY: each level leaves at most eight entries, the
-                        // depth is bounded by MAX_DEPTH, and STACK holds that.
+                        // SAFETY: each level leaves at most eight entries,
+                        // the depth is bounded by MAX_DEPTH, and STACK
+                        // holds that.
                         *refs.add(top) = child;
                         *masks.add(top) = entering;
-                        *dists.add(top) = near_of[c];
+                        if !ANY {
+                            *dists.add(top) = near_of[c];
+                        }
                         top += 1;
                     }
                 }
             } else {
                 let (first, count) = (leaf_first(current), leaf_count(current));
                 work.items += u64::from(count * mask.count_ones());
-                hits |= leaves.nearest(first, count, mask, t_max);
-                t_lanes = masked_t_max::<W>(t_max, packet.mask);
-                far = W::max_of(t_lanes, packet.mask);
+                if ANY {
+                    hits |= leaves.any(first, count, mask, t_max);
+                    live &= !hits;
+                    if live == 0 {
+                        return packet.mask;
+                    }
+                } else {
+                    hits |= leaves.nearest(first, count, mask, t_max);
+                }
+                t_lanes = masked_t_max::<W>(t_max, live);
+                far = W::max_of(t_lanes, live);
             }
             loop {
                 if top == 0 {
@@ -385,101 +416,16 @@ pub unsafe fn closest<W: Width, const ROBUST: bool, P: PacketLeaves<W>>(
                 }
                 top -= 1;
                 // SAFETY: entries below `top` were written above.
-                if *dists.add(top) <= far {
+                if ANY {
+                    let m = *masks.add(top) & live;
+                    if m != 0 {
+                        current = *refs.add(top);
+                        mask = m;
+                        break;
+                    }
+                } else if *dists.add(top) <= far {
                     current = *refs.add(top);
                     mask = *masks.add(top);
-                    break;
-                }
-            }
-        }
-    }
-}
-
-/// Whether anything blocks each of the packet's rays within its `t_max`:
-/// the blocked lanes. Like single-ray any hit, children are taken in slot
-/// order (smallest box last, so first off the stack) and a ray leaves the
-/// packet at its first hit.
-///
-/// # Safety
-/// As [`closest`].
-#[inline(always)]
-#[allow(clippy::too_many_arguments)]
-pub unsafe fn any<W: Width, const ROBUST: bool, P: PacketLeaves<W>>(
-    tree: &Tree,
-    packet: &Packet<W>,
-    t_max: &[f32; MAX_LANES],
-    leaves: &mut P,
-    single: &mut impl FnMut(&mut P, usize, ChildRef, f32, &mut Work) -> bool,
-    work: &mut Work,
-    single_below: u32,
-) -> u32 {
-    // SAFETY: the caller upholds this kernel's contract: the width's CPU features are
-    // enabled (a detected token chose this code) and the tree was checked by `Tree::new`,
-    // so every node reference read from it is in range.
-    unsafe {
-        let ia = interval::<W, ROBUST>(packet);
-        let lanes = packet.rays;
-        let rows = packet.rows();
-        let mut refs = AlignedStack::<ChildRef>::new();
-        let mut masks = AlignedStack::<u32>::new();
-        let (refs, masks) = (refs.as_mut_ptr(), masks.as_mut_ptr());
-        let mut top = 0usize;
-        let mut live = packet.mask;
-        let mut t_lanes = masked_t_max::<W>(t_max, live);
-        let mut far = W::max_of(t_lanes, live);
-        let mut current: ChildRef = 0;
-        let mut mask = live;
-        loop {
-            if !is_leaf(current) {
-                // SAFETY: the root, or an inner reference read from a node.
-                let node = tree.node_unchecked(current);
-                work.nodes += 1;
-                let (_, passed) = interval_slab::<ROBUST>(node, &ia, &rows, _mm256_set1_ps(far));
-                for c in bits(passed) {
-                    let entering = lane_slab::<W, ROBUST>(node, c, lanes, &rows, t_lanes) & mask;
-                    if entering == 0 {
-                        continue;
-                    }
-                    let child = node.child[c];
-                    if entering.count_ones() < single_below {
-                        for i in bits(entering) {
-                            if single(leaves, i, child, t_max[i], work) {
-                                live &= !(1 << i);
-                            }
-                        }
-                        if live == 0 {
-                            return packet.mask;
-                        }
-                        mask &= live;
-                        t_lanes = masked_t_max::<W>(t_max, live);
-                        far = W::max_of(t_lanes, live);
-                        continue;
-                    }
-                    // SAFETY: as in `closest`.
-                    *refs.add(top) = child;
-                    *masks.add(top) = entering;
-                    top += 1;
-                }
-            } else {
-                let (first, count) = (leaf_first(current), leaf_count(current));
-                work.items += u64::from(count * mask.count_ones());
-                live &= !leaves.any(first, count, mask, t_max);
-                if live == 0 {
-                    return packet.mask;
-                }
-                t_lanes = masked_t_max::<W>(t_max, live);
-                far = W::max_of(t_lanes, live);
-            }
-            loop {
-                if top == 0 {
-                    return packet.mask & !live;
-                }
-                top -= 1;
-                // SAFETY: entries below `top` were written above.
-                let m = *masks.add(top) & live;
-                if m != 0 {
-                    current = *refs.add(top);
-                    mask = m;
                     break;
                 }
             }
