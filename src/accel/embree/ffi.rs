@@ -430,11 +430,17 @@ impl<A: Api> Scene<'_, A> {
         unsafe { self.api.occluded1(self.raw, ray) }
     }
 
+    /// The C driver's view of this committed scene: its version's query
+    /// functions and the scene's handle, valid while `self` is borrowed.
+    pub(super) fn c_calls(&self) -> (super::plain_c::CFunctions, Handle) {
+        (self.api.c_functions(), self.raw)
+    }
+
     /// `rays` traced by the C driver, one `rtcIntersect1` (or
     /// `rtcOccluded1`) per ray as a C program makes them: the number of
     /// rays that hit and the sum of the hit primitive ids.
     pub fn trace_as_c_caller(&self, rays: &[FlatRay], occluded: bool) -> (usize, u64) {
-        super::plain_c::trace(self.api.c_functions(), self.raw, rays, occluded)
+        super::plain_c::trace(self, rays, occluded)
     }
 
     /// `rays` traced by the C driver in one of Embree's batched modes, as
@@ -447,15 +453,7 @@ impl<A: Api> Scene<'_, A> {
         occluded: bool,
         answers: Answers,
     ) -> Option<(usize, u64)> {
-        super::plain_c::trace_batched(
-            self.api.c_functions(),
-            self.raw,
-            mode,
-            coherent,
-            rays,
-            occluded,
-            answers,
-        )
+        super::plain_c::trace_batched(self, mode, coherent, rays, occluded, answers)
     }
 }
 

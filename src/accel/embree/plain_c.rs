@@ -5,6 +5,7 @@
 
 use std::ffi::c_void;
 
+use super::ffi::{Api, Scene};
 pub use crate::accel::BatchMode;
 use crate::geom::ray::FlatRay;
 
@@ -15,15 +16,15 @@ type Handle = *mut c_void;
 /// rays, packets of 8 and 16, and (Embree 3 only; null for 4) the stream.
 #[derive(Clone, Copy, Debug)]
 pub struct CFunctions {
-    pub version: EmbreeMajor,
-    pub intersect1: *const c_void,
-    pub occluded1: *const c_void,
-    pub intersect8: *const c_void,
-    pub occluded8: *const c_void,
-    pub intersect16: *const c_void,
-    pub occluded16: *const c_void,
-    pub intersect1m: *const c_void,
-    pub occluded1m: *const c_void,
+    pub(super) version: EmbreeMajor,
+    pub(super) intersect1: *const c_void,
+    pub(super) occluded1: *const c_void,
+    pub(super) intersect8: *const c_void,
+    pub(super) occluded8: *const c_void,
+    pub(super) intersect16: *const c_void,
+    pub(super) occluded16: *const c_void,
+    pub(super) intersect1m: *const c_void,
+    pub(super) occluded1m: *const c_void,
 }
 
 /// One answer of the C driver's batched modes (`struct hybrid_hit`):
@@ -116,14 +117,13 @@ pub const COHERENT3: u32 = 1;
 /// value, Embree 4 took its incoherent path.
 pub const COHERENT4: u32 = 1 << 16;
 
-/// Traces `rays` in `mode` on the committed `scene` of the version whose
-/// functions are `c`, with the coherent hint or without: the hit (or
+/// Traces `rays` in `mode` on the committed `scene`, with the coherent
+/// hint or without: the hit (or
 /// blocked) count and the sum of hit primitive ids, or `None` when this
 /// version lacks the mode. Answers go where `answers` says; its slice
 /// must be as long as `rays`, and match `occluded`.
-pub(super) fn trace_batched(
-    c: CFunctions,
-    scene: Handle,
+pub(super) fn trace_batched<A: Api>(
+    scene: &Scene<'_, A>,
     mode: BatchMode,
     coherent: bool,
     rays: &[FlatRay],
@@ -140,6 +140,7 @@ pub(super) fn trace_batched(
         }
         _ => return None,
     };
+    let (c, scene) = scene.c_calls();
     let f = match (mode, occluded) {
         (BatchMode::Packet8, false) => c.intersect8,
         (BatchMode::Packet8, true) => c.occluded8,
@@ -193,20 +194,20 @@ pub(super) fn trace_batched(
     (hits != usize::MAX).then_some((hits, checksum))
 }
 
-/// Traces `rays` on the committed `scene` of the version whose functions
-/// are `c`; returns the hit count and the sum of hit primitive ids.
-pub(super) fn trace(
-    c: CFunctions,
-    scene: Handle,
+/// Traces `rays` on the committed `scene`; returns the hit count and the
+/// sum of hit primitive ids.
+pub(super) fn trace<A: Api>(
+    scene: &Scene<'_, A>,
     rays: &[FlatRay],
     occluded: bool,
 ) -> (usize, u64) {
+    let (c, scene) = scene.c_calls();
     let mut checksum = 0u64;
     let (p, n) = (rays.as_ptr().cast::<f32>(), rays.len());
     // SAFETY: `c` holds the functions of the version whose layouts the C
-    // function of its major assumes (`Api::c_functions`), `scene` is a live
-    // committed scene of that library (the caller's `Scene` borrows it),
-    // and `p` points at `n` rays of eight floats.
+    // function of its major assumes (`Api::c_functions`), `scene` is the
+    // handle of the live committed scene borrowed for this call, and `p`
+    // points at `n` rays of eight floats.
     let hits = unsafe {
         match (c.version, occluded) {
             (EmbreeMajor::Three, false) => {
