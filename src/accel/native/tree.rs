@@ -28,7 +28,7 @@
 
 use glam::Vec3A;
 
-use super::node::{is_leaf, Node8, EMPTY, WIDTH};
+use super::node::{is_leaf, ChildRef, Node8, EMPTY, WIDTH};
 use crate::geom::Bounds;
 
 /// Deepest tree (in wide levels) the kernels' fixed stacks hold; deeper
@@ -120,12 +120,22 @@ impl Tree {
         self.nodes.is_empty()
     }
 
+    /// Whether a walk may start at `r` in this tree: a leaf or an empty
+    /// slot (which the kernels never read as a node), or an inner
+    /// reference inside the node list, whose subtree the check of
+    /// [`Tree::new`] covered like the whole tree's.
+    #[inline(always)]
+    pub fn holds(&self, r: ChildRef) -> bool {
+        is_leaf(r) || (r as usize) < self.nodes.len()
+    }
+
     /// The node at `r`, which the tree's check proved is in range for
     /// every inner reference the kernels read from its nodes.
     ///
     /// # Safety
-    /// `r` is 0 of a non-empty tree, or an inner child reference read from
-    /// one of this tree's nodes.
+    /// `r` is an inner reference the tree [holds](Tree::holds): 0 of a
+    /// non-empty tree, a walk's checked start, or an inner child reference
+    /// read from one of this tree's nodes.
     #[inline(always)]
     pub(super) unsafe fn node_unchecked(&self, r: u32) -> &Node8 {
         // SAFETY: the caller's reference is in range (`Tree::new`).
@@ -157,6 +167,18 @@ mod tests {
         let nodes = vec![inner(&[1, 2]), inner(&[leaf(0, 1)]), inner(&[leaf(1, 2)])];
         assert_eq!(Tree::new(nodes).expect("a valid tree").nodes().len(), 3);
         assert!(Tree::new(Vec::new()).expect("the empty tree").is_empty());
+    }
+
+    /// A walk starts only at a reference the tree holds: its nodes and any
+    /// leaf, never a node past its end.
+    #[test]
+    fn walks_start_only_where_the_tree_holds() {
+        let nodes = vec![inner(&[1, 2]), inner(&[leaf(0, 1)]), inner(&[leaf(1, 2)])];
+        let tree = Tree::new(nodes).expect("a valid tree");
+        assert!((0..3).all(|r| tree.holds(r)));
+        assert!(tree.holds(leaf(5, 1)) && tree.holds(EMPTY));
+        assert!(!tree.holds(3) && !tree.holds(1 << 20));
+        assert!(!Tree::default().holds(0));
     }
 
     #[test]

@@ -234,9 +234,16 @@ pub fn closest<L: Leaves>(
     if tree.is_empty() || (start == 0 && !ray.enters(tree.bounds(), *t_max)) {
         return false;
     }
+    // The kernels read nodes unchecked from `start` on: a reference this
+    // tree does not hold would be a bug upstream, stopped here.
+    assert!(
+        tree.holds(start),
+        "walk from {start}, not a reference of this tree"
+    );
     #[cfg(target_arch = "x86_64")]
     if let Some(cpu) = cpu {
-        // SAFETY: the token proves the CPU has the kernels' features.
+        // SAFETY: the token proves the CPU has the kernels' features, and
+        // the tree holds `start` (asserted above).
         return unsafe {
             if test == BoxTest::Fast && ray.fast_test_fits() {
                 avx2::walk::<false, false, L>(cpu, tree, ray, t_max, leaves, work, start)
@@ -266,9 +273,14 @@ pub fn any<L: Leaves>(
     if tree.is_empty() || (start == 0 && !ray.enters(tree.bounds(), t_max)) {
         return false;
     }
+    assert!(
+        tree.holds(start),
+        "walk from {start}, not a reference of this tree"
+    );
     #[cfg(target_arch = "x86_64")]
     if let Some(cpu) = cpu {
-        // SAFETY: the token proves the CPU has the kernels' features.
+        // SAFETY: the token proves the CPU has the kernels' features, and
+        // the tree holds `start` (asserted above).
         return unsafe {
             if test == BoxTest::Fast && ray.fast_test_fits() {
                 avx2::walk::<false, true, L>(cpu, tree, ray, &mut { t_max }, leaves, work, start)
