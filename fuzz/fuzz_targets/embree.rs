@@ -4,7 +4,7 @@
 //! FFI boundary; the batch queries must answer as single rays do.
 #![no_main]
 
-use hybrid::accel::{Accel, BackendConfig, TraceCounters};
+use hybrid::accel::{Accel, BackendConfig, Coherence, TraceCounters};
 use hybrid::parity::rays;
 use hybrid::scene::{collada, NormalMode};
 use libfuzzer_sys::fuzz_target;
@@ -25,7 +25,7 @@ fuzz_target!(|data: &[u8]| {
         if let Ok(accel) = config.build(&scene) {
             let mut counters = TraceCounters::default();
             let mut hits = vec![None; set.len()];
-            accel.closest_hits(&set, &mut hits, &mut counters);
+            accel.closest_hits(&set, Coherence::Incoherent, &mut hits, &mut counters);
             let mut blocked = vec![false; set.len()];
             accel.occluded_all(&set, &mut blocked, &mut counters);
             // Native packets give each ray its single-ray answer; between

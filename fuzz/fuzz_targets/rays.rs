@@ -7,7 +7,7 @@
 use std::path::Path;
 use std::sync::OnceLock;
 
-use hybrid::accel::{config::compared, Accel, Backend};
+use hybrid::accel::{config::compared, Backend};
 use hybrid::bench::{file, scene_of};
 use hybrid::measure::Query;
 use hybrid::scene::Scene;
