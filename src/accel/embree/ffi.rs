@@ -236,6 +236,15 @@ impl<A: Api> Drop for SceneBuilder<'_, A> {
     }
 }
 
+// SAFETY: a `Scene` exists only committed (`SceneBuilder::commit` makes
+// it) and releases its handle only when dropped, so the handle lives while
+// the scene is borrowed; `c_functions` is its own library's table.
+unsafe impl<A: Api> super::plain_c::CommittedScene for Scene<'_, A> {
+    fn c_calls(&self) -> (super::plain_c::CFunctions, Handle) {
+        (self.api.c_functions(), self.raw)
+    }
+}
+
 impl<A: Api> Drop for Scene<'_, A> {
     fn drop(&mut self) {
         // SAFETY: the handle holds one reference, owned by this value.
@@ -428,12 +437,6 @@ impl<A: Api> Scene<'_, A> {
     pub fn occluded(&self, ray: RawRay) -> bool {
         // SAFETY: as in `intersect`.
         unsafe { self.api.occluded1(self.raw, ray) }
-    }
-
-    /// The C driver's view of this committed scene: its version's query
-    /// functions and the scene's handle, valid while `self` is borrowed.
-    pub(super) fn c_calls(&self) -> (super::plain_c::CFunctions, Handle) {
-        (self.api.c_functions(), self.raw)
     }
 
     /// `rays` traced by the C driver, one `rtcIntersect1` (or

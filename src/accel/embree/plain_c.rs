@@ -5,12 +5,22 @@
 
 use std::ffi::c_void;
 
-use super::ffi::{Api, Scene};
 pub use crate::accel::BatchMode;
 use crate::geom::ray::FlatRay;
 
 /// A committed Embree scene (`RTCScene`).
 type Handle = *mut c_void;
+
+/// A committed Embree scene as the C driver sees it.
+///
+/// # Safety
+/// `c_calls` gives the scene's handle, committed and alive for as long as
+/// `self` is borrowed, and the query functions of the library version
+/// that made it (`Api::c_functions`), whose struct layouts the C function
+/// of that major assumes.
+pub(super) unsafe trait CommittedScene {
+    fn c_calls(&self) -> (CFunctions, Handle);
+}
 
 /// An Embree version's query functions, as C function pointers: single
 /// rays, packets of 8 and 16, and (Embree 3 only; null for 4) the stream.
@@ -122,8 +132,8 @@ pub const COHERENT4: u32 = 1 << 16;
 /// blocked) count and the sum of hit primitive ids, or `None` when this
 /// version lacks the mode. Answers go where `answers` says; its slice
 /// must be as long as `rays`, and match `occluded`.
-pub(super) fn trace_batched<A: Api>(
-    scene: &Scene<'_, A>,
+pub(super) fn trace_batched(
+    scene: &impl CommittedScene,
     mode: BatchMode,
     coherent: bool,
     rays: &[FlatRay],
@@ -196,11 +206,7 @@ pub(super) fn trace_batched<A: Api>(
 
 /// Traces `rays` on the committed `scene`; returns the hit count and the
 /// sum of hit primitive ids.
-pub(super) fn trace<A: Api>(
-    scene: &Scene<'_, A>,
-    rays: &[FlatRay],
-    occluded: bool,
-) -> (usize, u64) {
+pub(super) fn trace(scene: &impl CommittedScene, rays: &[FlatRay], occluded: bool) -> (usize, u64) {
     let (c, scene) = scene.c_calls();
     let mut checksum = 0u64;
     let (p, n) = (rays.as_ptr().cast::<f32>(), rays.len());
