@@ -214,7 +214,7 @@ pub fn shared_scenes(quick: bool) -> Vec<&'static str> {
         .collect();
     all.extend(BRUTE_FORCE_SCENES);
     all.extend(NORMALS_SCENES);
-    all.extend([SERIES_SCENE, SAMPLES_SCENE, super::scaling::SCANNED]);
+    all.extend([SERIES_SCENE, SAMPLES_SCENE, SCANNED]);
     all.sort_unstable();
     all.dedup();
     all
@@ -240,4 +240,6 @@ pub const NORMALS_SCENES: [&str; 4] = [
     "keenan/banana.dae",
 ];
 pub const SERIES_SCENE: &str = "sky/CBbunny.dae";
+/// The scanned mesh every scaling scene is made of.
+pub const SCANNED: &str = "sky/bunny.dae";
 pub const SAMPLES_SCENE: &str = "sky/CBspheres_lambertian.dae";

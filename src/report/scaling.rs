@@ -12,7 +12,7 @@ use std::path::Path;
 
 use glam::{Mat3, Vec3};
 
-use super::budget::Budget;
+use super::budget::{Budget, SCANNED};
 use super::plot::{line_fit, loglog, loglog_slope, Series};
 use super::table::{Cell, Table};
 use crate::accel::config::compared;
@@ -23,8 +23,6 @@ use crate::measure::{mrays_interleaved, time_repeats, Measured, Query};
 use crate::scene::generate::{subdivide, SceneBuilder};
 use crate::scene::{Material, NormalMode, Scene};
 
-/// The scanned mesh every scaling scene is made of.
-pub const SCANNED: &str = "sky/bunny.dae";
 
 /// The two families of meshes, in the order of the rows.
 pub const FAMILIES: [&str; 2] = ["bunny subdivided", "cloud of bunnies"];
