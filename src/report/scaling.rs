@@ -23,7 +23,6 @@ use crate::measure::{mrays_interleaved, time_repeats, Measured, Query};
 use crate::scene::generate::{subdivide, SceneBuilder};
 use crate::scene::{Material, NormalMode, Scene};
 
-
 /// The two families of meshes, in the order of the rows.
 pub const FAMILIES: [&str; 2] = ["bunny subdivided", "cloud of bunnies"];
 
