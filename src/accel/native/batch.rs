@@ -528,6 +528,11 @@ impl NativeBvh {
         // are a stream's worth.
         let mut pending = [0u32; traverse::STREAM];
         let mut waiting = 0;
+        // Whether the last group formed a packet. After one that did not,
+        // the next is asked in scalar code first ([`packet_can_form`]), so
+        // that an incoherent batch does not transpose every group only to
+        // send its rays alone; a coherent one goes straight to the lanes.
+        let mut formed = true;
         for start in (0..rays.len()).step_by(lanes) {
             let end = rays.len().min(start + lanes);
             let group_rays = &rays[start..end];
@@ -546,7 +551,9 @@ impl NativeBvh {
             // SAFETY: the kernels were chosen by the token that proves
             // their CPU features; the triangle tree is not empty (checked
             // above).
-            if unsafe { group(self, blocks, group_rays, &mut out[start..end], counters) } {
+            formed = (formed || packet::packet_can_form(group_rays, min_packet(lanes)))
+                && unsafe { group(self, blocks, group_rays, &mut out[start..end], counters) };
+            if formed {
                 continue;
             }
             if !Q::STREAMS {

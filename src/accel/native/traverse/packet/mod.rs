@@ -47,6 +47,7 @@ pub use self::width::{Width, MAX_LANES, X8};
 pub use self::x16::X16;
 pub use self::x8x2::X8x2;
 use super::*;
+use crate::geom::Ray;
 
 /// A packet's rays as the leaf test takes them: origins, directions and
 /// `t_min`, one lane per ray.
@@ -116,6 +117,25 @@ pub unsafe fn octant_holds<W: Width>(fields: &[W::V; 8], n: usize, min: u32) -> 
         rest &= !group;
     }
     false
+}
+
+/// [`octant_holds`] in plain scalar code, read from the rays' sign bits
+/// before any transposition: a few instructions a ray, so that a batch
+/// whose groups form no packet need not transpose each to find out.
+#[inline(always)]
+pub fn packet_can_form(rays: &[Ray], min: u32) -> bool {
+    debug_assert!(rays.len() <= MAX_LANES && (1..=MAX_LANES as u32).contains(&min));
+    // One byte per octant counts its rays (at most sixteen, so no byte
+    // carries into the next); adding 128 - min to every byte sets the
+    // top bit of those that reached `min`.
+    let mut counts = 0u64;
+    for ray in rays {
+        let sign = |x: f32| (x.to_bits() >> 31) as u64;
+        let octant = sign(ray.dir.x) | sign(ray.dir.y) << 1 | sign(ray.dir.z) << 2;
+        counts += 1 << (8 * octant);
+    }
+    let threshold = (128 - u64::from(min)) * 0x0101_0101_0101_0101;
+    (counts + threshold) & 0x8080_8080_8080_8080 != 0
 }
 
 impl<W: Width> PacketRays<W> {
@@ -436,23 +456,6 @@ pub unsafe fn walk<W: Width, const ROBUST: bool, const ANY: bool, P: PacketLeave
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::geom::Ray;
-
-    /// [`octant_holds`] in plain scalar code: the test's reference.
-    fn packet_can_form(rays: &[Ray], min: u32) -> bool {
-        debug_assert!(rays.len() <= MAX_LANES && (1..=MAX_LANES as u32).contains(&min));
-        // One byte per octant counts its rays (at most sixteen, so no byte
-        // carries into the next); adding 128 - min to every byte sets the
-        // top bit of those that reached `min`.
-        let mut counts = 0u64;
-        for ray in rays {
-            let sign = |x: f32| (x.to_bits() >> 31) as u64;
-            let octant = sign(ray.dir.x) | sign(ray.dir.y) << 1 | sign(ray.dir.z) << 2;
-            counts += 1 << (8 * octant);
-        }
-        let threshold = (128 - u64::from(min)) * 0x0101_0101_0101_0101;
-        (counts + threshold) & 0x8080_8080_8080_8080 != 0
-    }
 
     /// [`octant_holds`] with eight lanes.
     #[target_feature(enable = "avx2,fma")]
