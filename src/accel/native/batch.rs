@@ -48,6 +48,10 @@ pub(super) enum PacketKernels {
     /// Sixteen rays in two AVX2 registers per value.
     #[cfg(target_arch = "x86_64")]
     Avx2Wide(Avx2),
+    /// AVX2 without a width asked for: each query at the width that
+    /// measured faster for it ([`Query::TWO_REGISTERS`]).
+    #[cfg(target_arch = "x86_64")]
+    Avx2ByQuery(Avx2),
     /// None: every ray alone.
     None,
 }
@@ -68,13 +72,18 @@ impl PacketKernels {
             PacketKernels::Avx2Wide(_) => {
                 "packets of 16 rays (AVX2, two registers each) where 12 share an octant; other closest hits alone, other occlusion rays in streams of 64"
             }
+            #[cfg(target_arch = "x86_64")]
+            PacketKernels::Avx2ByQuery(_) => {
+                "closest hits in packets of 8 rays (AVX2) where 6 share an octant, occlusion in packets of 16 (AVX2, two registers each) where 12 do; other closest hits alone, other occlusion rays in streams of 64"
+            }
             PacketKernels::None => "single-ray loop (no AVX2)",
         }
     }
 
     /// The widest kernels the CPU runs, unless `options` turn SIMD off or
     /// ask for a width (`packet_lanes` 8 or 16; 16 without AVX-512 is two
-    /// AVX2 registers per value).
+    /// AVX2 registers per value). Without AVX-512 and without a width
+    /// asked for, each query takes the width that measured faster for it.
     pub(super) fn detect(options: &NativeOptions) -> PacketKernels {
         if !options.simd {
             return PacketKernels::None;
@@ -85,10 +94,11 @@ impl PacketKernels {
                 return PacketKernels::Avx512(wide);
             }
             if let Some(cpu) = Avx2::detect() {
-                if options.packet_lanes == 16 {
-                    return PacketKernels::Avx2Wide(cpu);
-                }
-                return PacketKernels::Avx2(cpu);
+                return match options.packet_lanes {
+                    16 => PacketKernels::Avx2Wide(cpu),
+                    8 => PacketKernels::Avx2(cpu),
+                    _ => PacketKernels::Avx2ByQuery(cpu),
+                };
             }
         }
         PacketKernels::None
@@ -105,6 +115,10 @@ pub(super) trait Query {
     /// Whether the rays of a batch that no packet takes are walked
     /// together ([`Query::rest`]) rather than one at a time.
     const STREAMS: bool;
+    /// Whether, on AVX2 without a width asked for, this query's packets
+    /// are sixteen rays in two registers per value ([`X8x2`]) rather than
+    /// eight ([`X8`]).
+    const TWO_REGISTERS: bool;
     /// The rays of a batch that no packet takes (`which`: indices into
     /// `rays`, at most [`traverse::STREAM`]), when [`Query::STREAMS`]; by
     /// default one at a time.
@@ -146,6 +160,9 @@ impl Query for Closest {
     // Closest hits keep single rays' front-to-back order; a stream that
     // shares nodes loses it (not measured yet).
     const STREAMS: bool = false;
+    // Camera rays, CBbunny, AVX2: 8 lanes 91-94 Mrays/s, 16 lanes in two
+    // registers 89-90 (the lane registers spill; docs/experiments.md).
+    const TWO_REGISTERS: bool = false;
     fn alone(bvh: &NativeBvh, ray: &Ray, counters: &mut TraceCounters) -> Option<Hit> {
         let vectors = ray.traceable_vectors()?;
         bvh.closest(ray, vectors, counters)
@@ -248,6 +265,10 @@ impl Query for Occluded {
     type Answer = bool;
     const MISS: bool = false;
     const STREAMS: bool = true;
+    // Light rays, CBbunny, AVX2: 16 lanes in two registers 48.8 Mrays/s
+    // against 44.4-44.9 in eight; shadow rays alike (27.2-27.3 and
+    // 27.0-27.2). An any-hit packet keeps no hit per lane nor child order.
+    const TWO_REGISTERS: bool = true;
     fn alone(bvh: &NativeBvh, ray: &Ray, counters: &mut TraceCounters) -> bool {
         ray.traceable_vectors()
             .is_some_and(|v| bvh.any(ray, v, counters))
@@ -522,6 +543,8 @@ impl NativeBvh {
             PacketKernels::Avx512(_) => (Self::group16::<Q>, 16),
             PacketKernels::Avx2(_) => (Self::group_avx2::<X8, Q>, 8),
             PacketKernels::Avx2Wide(_) => (Self::group_avx2::<X8x2, Q>, 16),
+            PacketKernels::Avx2ByQuery(_) if Q::TWO_REGISTERS => (Self::group_avx2::<X8x2, Q>, 16),
+            PacketKernels::Avx2ByQuery(_) => (Self::group_avx2::<X8, Q>, 8),
             PacketKernels::None => return None,
         };
         // Rays of groups that form no packet, traced together once there
