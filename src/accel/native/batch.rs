@@ -205,7 +205,7 @@ impl Query for Closest {
             // The rays that miss the root box meet no triangle, as alone.
             let rooted = Packet {
                 rays: p.rays,
-                mask: p.mask & p.rays.enters(tree.bounds(), W::load(&t_max)),
+                mask: p.mask & p.rays.rooted,
             };
             let (t, l) = (&mut t_max, &mut leaves);
             let found = if rooted.mask == 0 {
@@ -363,7 +363,7 @@ impl Query for Occluded {
             // The rays that miss the root box meet no triangle, as alone.
             let rooted = Packet {
                 rays: p.rays,
-                mask: p.mask & p.rays.enters(tree.bounds(), W::load(&t_max)),
+                mask: p.mask & p.rays.rooted,
             };
             let (t, l) = (&mut t_max, &mut leaves);
             let blocked = if rooted.mask == 0 {
@@ -438,7 +438,8 @@ impl NativeBvh {
         // enabled (a detected token chose this code) and the tree was checked by
         // `Tree::new`, so every node reference read from it is in range.
         unsafe {
-            let prepared = PacketRays::<W>::from_fields(*fields, rays.len());
+            let prepared =
+                PacketRays::<W>::from_fields(*fields, rays.len(), self.triangles.bounds());
             let mut rest = prepared.traceable;
             let lanes = (1u32 << out.len()) - 1;
             for i in lanes_of(lanes & !rest) {

@@ -72,7 +72,11 @@ pub struct PacketRays<W: Width> {
     t_max: W::V,
     /// Lanes whose ray is traceable.
     pub traceable: u32,
-    /// Lanes whose fast-test constants are finite.
+    /// Traceable lanes whose ray enters the tree's root box within its
+    /// `t_max` ([`PacketRays::enters`]): the lanes a walk starts with.
+    pub rooted: u32,
+    /// Lanes whose fast-test constants are finite (none when no lane is
+    /// rooted: the constants were not computed).
     fits: u32,
     /// Per axis, the lanes whose direction is negative.
     negative: [u32; 3],
@@ -140,14 +144,16 @@ pub fn packet_can_form(rays: &[Ray], min: u32) -> bool {
 
 impl<W: Width> PacketRays<W> {
     /// The first `W::N` of `n` rays (at least one) as lanes, from their
-    /// fields ([`Width::fields`]). Callers ask [`octant_holds`] first:
-    /// without a packet the set-up (three divisions, the box test's
-    /// constants) is paid for nothing.
+    /// fields ([`Width::fields`]), for a tree whose root box is `root`.
+    /// Callers ask [`octant_holds`] first: without a packet the set-up
+    /// (three divisions, the box test's constants) is paid for nothing.
+    /// The fast box test's constants are left out when no lane enters
+    /// the root box (camera rays into the sky): no walk reads them then.
     ///
     /// # Safety
     /// Only from `W`'s `#[target_feature]` code ([`Width`]).
     #[inline(always)]
-    pub unsafe fn from_fields(fields: [W::V; 8], n: usize) -> PacketRays<W> {
+    pub unsafe fn from_fields(fields: [W::V; 8], n: usize, root: [Vec3A; 2]) -> PacketRays<W> {
         // SAFETY: the caller upholds this kernel's contract: the width's CPU features are
         // enabled (a detected token chose this code).
         unsafe {
@@ -163,31 +169,20 @@ impl<W: Width> PacketRays<W> {
                 traceable &= W::le(W::abs(origin[a]), limit) & W::le(W::abs(dir[a]), limit);
                 moves |= W::gt(W::abs(dir[a]), zero);
             }
-            // BoxRay::new, lane by lane.
+            // BoxRay::new, lane by lane: first the reciprocals, which the
+            // root's test needs.
             let tiny = W::splat(1e-20);
             let one = W::splat(1.0);
-            let infinity = W::splat(f32::INFINITY);
+            let mut safe = [zero; 3];
             let mut inv = [zero; 3];
-            let mut fast = [[zero; 3]; 3];
             let mut negative = [0u32; 3];
-            let mut fits = u32::MAX;
             for a in 0..3 {
                 let d = dir[a];
-                let safe = W::select(W::lt(W::abs(d), tiny), d, W::copysign(tiny, d));
-                inv[a] = W::div(one, safe);
-                let sign = W::mul(origin[a], safe);
-                let near_k = W::add(one, W::copysign(W::splat(FAST_NEAR_MARGIN), sign));
-                let far_k = W::sub(
-                    W::splat(FAST_FAR_SCALE),
-                    W::copysign(W::splat(FAST_FAR_MARGIN), sign),
-                );
-                fast[0][a] = W::mul(W::mul(origin[a], near_k), inv[a]);
-                fast[1][a] = W::mul(inv[a], W::splat(FAST_FAR_SCALE));
-                fast[2][a] = W::mul(W::mul(origin[a], far_k), inv[a]);
-                fits &= W::lt(W::abs(fast[0][a]), infinity) & W::lt(W::abs(fast[2][a]), infinity);
-                negative[a] = W::lt(safe, zero);
+                safe[a] = W::select(W::lt(W::abs(d), tiny), d, W::copysign(tiny, d));
+                inv[a] = W::div(one, safe[a]);
+                negative[a] = W::lt(safe[a], zero);
             }
-            PacketRays {
+            let mut rays = PacketRays {
                 lanes: Lanes {
                     origin,
                     dir,
@@ -199,12 +194,35 @@ impl<W: Width> PacketRays<W> {
                     ),
                 },
                 inv,
-                fast,
+                fast: [[zero; 3]; 3],
                 t_max,
                 traceable: traceable & moves & lanes,
-                fits,
+                rooted: 0,
+                fits: 0,
                 negative,
+            };
+            rays.rooted = rays.traceable & rays.enters(root, t_max);
+            if rays.rooted == 0 {
+                return rays;
             }
+            // Then the fast test's constants.
+            let infinity = W::splat(f32::INFINITY);
+            let mut fits = u32::MAX;
+            for a in 0..3 {
+                let sign = W::mul(origin[a], safe[a]);
+                let near_k = W::add(one, W::copysign(W::splat(FAST_NEAR_MARGIN), sign));
+                let far_k = W::sub(
+                    W::splat(FAST_FAR_SCALE),
+                    W::copysign(W::splat(FAST_FAR_MARGIN), sign),
+                );
+                let fast = &mut rays.fast;
+                fast[0][a] = W::mul(W::mul(origin[a], near_k), inv[a]);
+                fast[1][a] = W::mul(inv[a], W::splat(FAST_FAR_SCALE));
+                fast[2][a] = W::mul(W::mul(origin[a], far_k), inv[a]);
+                fits &= W::lt(W::abs(fast[0][a]), infinity) & W::lt(W::abs(fast[2][a]), infinity);
+            }
+            rays.fits = fits;
+            rays
         }
     }
 
@@ -224,7 +242,7 @@ impl<W: Width> PacketRays<W> {
     /// # Safety
     /// As [`PacketRays::from_fields`].
     #[inline(always)]
-    pub unsafe fn enters(&self, [lo, hi]: [Vec3A; 2], t_max: W::V) -> u32 {
+    unsafe fn enters(&self, [lo, hi]: [Vec3A; 2], t_max: W::V) -> u32 {
         // SAFETY: the caller upholds this kernel's contract: the width's CPU features are
         // enabled (a detected token chose this code) and the tree was checked by
         // `Tree::new`, so every node reference read from it is in range.
