@@ -383,6 +383,14 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
         );
     }
     say!("{line}");
+    let waves = result.wave_times;
+    if waves.total() > 0.0 {
+        let [closest, occluded, paths] = waves.shares().map(|s| 100.0 * s);
+        say!(
+            "waves: {closest:.0}% in extension-ray batches, {occluded:.0}% in shadow-ray batches, {paths:.0}% stepping paths (shading, sampling, gathering rays) of {:.2} thread-seconds",
+            waves.total()
+        );
+    }
     // The image and its sample-rate companion are written together or
     // not at all.
     if settings.adaptive.is_some() {

@@ -28,8 +28,8 @@ use self::camera_file::CourseCamera;
 use self::film::Film;
 use self::film::Origin;
 use self::integrator::{Integrator, Shading};
-pub use self::wave::Batching;
 use self::wave::Wave;
+pub use self::wave::{Batching, WaveTimes};
 use crate::accel::{Accel, TraceCounters};
 use crate::geom::sampling::{luminance, pixel_position, Rng};
 use crate::geom::Ray;
@@ -121,6 +121,8 @@ pub struct RenderOutput {
     pub film: Film,
     pub counters: TraceCounters,
     pub seconds: f64,
+    /// Where the waves' time went (`--waves`; zero otherwise).
+    pub wave_times: WaveTimes,
 }
 
 impl RenderOutput {
@@ -213,14 +215,14 @@ fn render_rows<A: Accel>(
     // One row per job: rayon would otherwise cut the rows into a few
     // pieces per thread, and the thread whose pieces cost less idles at
     // the end of the frame.
-    let totals: TraceCounters = rows
+    let (totals, wave_times) = rows
         .into_par_iter()
         .with_max_len(1)
         .map(|(row_index, ((row, counts), sums))| {
             let y = cell.y + row_index as u32;
             let mut counters = TraceCounters::default();
             let columns = cell.x..cell.x + cell.width;
-            render_row(
+            let times = render_row(
                 &integrator,
                 &camera,
                 settings,
@@ -239,16 +241,18 @@ fn render_rows<A: Accel>(
                 };
             }
             progress.row_done(counts.iter().map(|&n| u64::from(n)).sum());
-            counters
+            (counters, times)
         })
-        .reduce(TraceCounters::default, |mut a, b| {
+        .reduce(Default::default, |(mut a, mut x), (b, y)| {
             a += b;
-            a
+            x += y;
+            (a, x)
         });
     RenderOutput {
         film,
         counters: totals,
         seconds: start.elapsed().as_secs_f64(),
+        wave_times,
     }
 }
 
@@ -300,7 +304,7 @@ pub const WAVE_PATHS: usize = 4096;
 /// `settings.batching` says). Each pixel takes its samples in order from
 /// its own random streams, its sums add them in sample order, and each
 /// path takes the same steps however it is batched, so the sums do not
-/// depend on the batching.
+/// depend on the batching. Returns where the row's waves spent their time.
 #[allow(clippy::too_many_arguments)]
 fn render_row<A: Accel>(
     integrator: &Integrator<A>,
@@ -311,7 +315,7 @@ fn render_row<A: Accel>(
     sums: &mut [DVec3],
     counts: &mut [u32],
     counters: &mut TraceCounters,
-) {
+) -> WaveTimes {
     let cap = settings.samples.max(1);
     let (first, last) = settings.sample_range.unwrap_or((0, cap));
     let batch = settings.adaptive.map_or(cap, |a| a.batch.max(1));
@@ -370,6 +374,7 @@ fn render_row<A: Accel>(
             }
         }
     }
+    wave.times
 }
 
 #[cfg(test)]

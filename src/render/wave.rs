@@ -7,6 +7,8 @@
 //! so the radiance of every path, and the image, does not depend on how
 //! paths are grouped.
 
+use std::time::Instant;
+
 use glam::Vec3;
 
 use super::integrator::{Integrator, PathState, ShadowTape};
@@ -40,9 +42,48 @@ impl Batching {
     }
 }
 
+/// Where a wave renderer's time went, in seconds of the threads that
+/// rendered (summed over them): its batch queries of extension rays and of
+/// shadow rays, and the rest, which steps the paths (shading each hit,
+/// choosing its light samples and next direction) and gathers the moving
+/// paths' rays. Each phase is timed once per bounce of a wave, a few clock
+/// reads per thousand paths. Zero unless the renderer ran `--waves`.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct WaveTimes {
+    pub closest: f64,
+    pub occluded: f64,
+    pub paths: f64,
+}
+
+impl WaveTimes {
+    pub fn total(&self) -> f64 {
+        self.closest + self.occluded + self.paths
+    }
+
+    /// Each phase's share of the total, in the fields' order (zeros when
+    /// nothing was timed).
+    pub fn shares(&self) -> [f64; 3] {
+        let total = self.total();
+        if total <= 0.0 {
+            return [0.0; 3];
+        }
+        [self.closest, self.occluded, self.paths].map(|t| t / total)
+    }
+}
+
+impl std::ops::AddAssign for WaveTimes {
+    fn add_assign(&mut self, o: WaveTimes) {
+        self.closest += o.closest;
+        self.occluded += o.occluded;
+        self.paths += o.paths;
+    }
+}
+
 /// Paths traced together, and the lists they reuse from wave to wave.
 #[derive(Default)]
 pub struct Wave<'s> {
+    /// Where the waves' time went so far.
+    pub times: WaveTimes,
     states: Vec<PathState<'s>>,
     tape: ShadowTape,
     blocked: Vec<bool>,
@@ -67,6 +108,13 @@ impl<'s> Wave<'s> {
         values.clear();
         let accel = integrator.accel();
         let n = camera_rays.len();
+        // The phases of a wave, timed from here (the camera rays).
+        let mut clock = Instant::now();
+        let mut lap = |into: &mut f64| {
+            let now = Instant::now();
+            *into += (now - clock).as_secs_f64();
+            clock = now;
+        };
         self.hits.resize(n, None);
         if batching == Batching::Alone {
             for (ray, hit) in camera_rays.iter().zip(&mut self.hits) {
@@ -86,6 +134,7 @@ impl<'s> Wave<'s> {
             }
             return;
         }
+        lap(&mut self.times.closest);
         self.tape.clear();
         self.states.clear();
         self.states.resize_with(n, || PathState::Done(Vec3::ZERO));
@@ -93,7 +142,9 @@ impl<'s> Wave<'s> {
             let (ray, hit) = (&camera_rays[k], self.hits[k]);
             integrator.begin(ray, hit, stream, &mut self.tape, counters, state);
         }
+        lap(&mut self.times.paths);
         self.answer_shadows(integrator, counters);
+        lap(&mut self.times.occluded);
         loop {
             self.moving.clear();
             self.rays.clear();
@@ -104,6 +155,7 @@ impl<'s> Wave<'s> {
                     self.rays.push(*ray);
                 }
             }
+            lap(&mut self.times.paths);
             if self.moving.is_empty() {
                 break;
             }
@@ -115,12 +167,15 @@ impl<'s> Wave<'s> {
                 &mut self.hits[..m],
                 counters,
             );
+            lap(&mut self.times.closest);
             self.tape.clear();
             for (&k, &hit) in self.moving.iter().zip(&self.hits) {
                 let (state, stream) = (&mut self.states[k as usize], &mut streams[k as usize]);
                 integrator.arrive_at(state, hit, stream, &mut self.tape, counters);
             }
+            lap(&mut self.times.paths);
             self.answer_shadows(integrator, counters);
+            lap(&mut self.times.occluded);
         }
         values.extend(self.states.iter().map(|s| s.value().unwrap_or(Vec3::ZERO)));
     }

@@ -231,6 +231,45 @@ pub fn packets_section(results: &[SceneResult]) -> (String, Value) {
     (md, json!({ "targets": table.json() }))
 }
 
+/// Each backend's frame in the renderer's three modes, and where the
+/// waves' time went.
+fn frames_table(r: &SceneResult) -> Table {
+    let mut table = Table::new([
+        ("backend", "backend"),
+        ("default_seconds", "camera rays batched, s"),
+        ("embree_over_native", "its time / native's"),
+        ("alone_seconds", "every ray alone, s"),
+        ("waves_seconds", "waves, s"),
+        ("waves_over_default", "waves / default"),
+        ("waves_over_default_interval", "its interval"),
+        ("waves_extension_percent", "waves: extension-ray batches, %"),
+        ("waves_shadow_percent", "waves: shadow-ray batches, %"),
+        ("waves_paths_percent", "waves: stepping paths, %"),
+    ]);
+    for (i, c) in r.compared.iter().enumerate() {
+        let (lo, median, hi) = r.wave_frame[i];
+        let shares = r.wave_times[i].shares();
+        let percent = |x: f64| Cell::Number(100.0 * x, 0);
+        table.row(vec![
+            Cell::Text(c.label()),
+            Cell::Measured(r.frame_seconds[i], 3),
+            if i == 0 {
+                Cell::Empty
+            } else {
+                Cell::ratio_of(r.frame_ratio(i), &r.frame_pair(i))
+            },
+            Cell::Measured(r.frame_seconds_alone[i], 3),
+            Cell::Measured(r.frame_seconds_waves[i], 3),
+            Cell::Ratio(median),
+            Cell::Text(format!("{lo:.3}–{hi:.3}")),
+            percent(shares[0]),
+            percent(shares[1]),
+            percent(shares[2]),
+        ]);
+    }
+    table
+}
+
 /// The per-scene section: Markdown and the JSON of every scene.
 pub fn section(results: &[SceneResult]) -> (String, Value) {
     let mut md = String::from("## Build and trace, per scene\n\nMedians of warmed-up repeats with their range (min–max); ⚠ marks figures whose repeats spread by more than 10% (and ratios of such figures), ↓ a figure on all threads worse than the same on one thread. Ratios are native / each Embree's throughput: greater than 1 means native is faster.\n\n");
@@ -247,26 +286,9 @@ pub fn section(results: &[SceneResult]) -> (String, Value) {
             .map(|(c, call)| format!("{}: {call}", c.label()))
             .collect();
         let (w, h, spp) = r.frame;
-        let frames: Vec<String> = r
-            .compared
-            .iter()
-            .enumerate()
-            .map(|(i, c)| {
-                let ratio = if i == 0 {
-                    String::new()
-                } else {
-                    format!(" ({:.2}x)", r.frame_ratio(i))
-                };
-                format!(
-                    "{} {:.3} s{ratio}, {:.3} s without packets",
-                    c.label(),
-                    r.frame_seconds[i].median,
-                    r.frame_seconds_alone[i].median
-                )
-            })
-            .collect();
+        let frames = frames_table(r);
         md += &format!(
-            "### {} ({}: {} primitives)\n\n{}\n{}\nCamera and light rays in every batched mode, 1 thread (Mrays/s by CPU time; each Embree called from C):\n\n{}\nThe same on {} threads, through each backend's batch query ({}):\n\n{}\nTime per frame ({w}x{h}, {spp} spp, 3 bounces, light sampling, {} threads; camera rays in packets unless said): {} (in parentheses each Embree's time / native's: greater than 1 means native is faster).\n\n",
+            "### {} ({}: {} primitives)\n\n{}\n{}\nCamera and light rays in every batched mode, 1 thread (Mrays/s by CPU time; each Embree called from C):\n\n{}\nThe same on {} threads, through each backend's batch query ({}):\n\n{}\nTime per frame ({w}x{h}, {spp} spp, 3 bounces, light sampling, {} threads) in the renderer's three modes, the same image in each: camera rays in batches (the default), every ray alone (`--no-packets`), every bounce's rays of a wave of paths in batches (`--waves`); waves / default is the median of the per-round ratios with its 95% interval, and the last columns say where the waves' thread time went:\n\n{}\n",
             r.scene,
             r.size,
             r.primitives,
@@ -277,7 +299,7 @@ pub fn section(results: &[SceneResult]) -> (String, Value) {
             calls.join("; "),
             batched_all.markdown(),
             r.threads,
-            frames.join(", "),
+            frames.markdown(),
         );
         let frame_json: serde_json::Map<String, Value> = r
             .compared
@@ -293,6 +315,7 @@ pub fn section(results: &[SceneResult]) -> (String, Value) {
             "traces": traces.json(),
             "batched": batched.json(),
             "batched_all_threads": batched_all.json(),
+            "frames": frames.json(),
             "frame_seconds": frame_json,
             "frame_seconds_without_packets": r
                 .compared

@@ -18,7 +18,7 @@ use crate::measure::{
     trace_all_batched, Measured,
 };
 use crate::render::integrator::{PathSettings, Shading};
-use crate::render::{render, Batching, RenderSettings, Silent};
+use crate::render::{render, Batching, RenderSettings, Silent, WaveTimes};
 use crate::scene::Scene;
 
 /// One build variant: times on one thread and on all threads, and what
@@ -157,6 +157,13 @@ pub struct SceneResult {
     /// Per compared backend, the frame with packets over without, round
     /// by round ([`paired_ratio`]): `(lo, median, hi)`.
     pub packet_frame: Vec<(f64, f64, f64)>,
+    /// Per compared backend, the frame with every bounce in waves
+    /// (`--waves`), and its ratio to the default mode round by round.
+    pub frame_seconds_waves: Vec<Measured>,
+    pub wave_frame: Vec<(f64, f64, f64)>,
+    /// Per compared backend, where its waves' time went, summed over the
+    /// timed frames.
+    pub wave_times: Vec<WaveTimes>,
 }
 
 impl SceneResult {
@@ -324,24 +331,45 @@ pub fn measure(
     };
     // Interleaved as the rays are: a frame takes a tenth of a second, so
     // back-to-back repeats of one backend caught the machine's drift. Each
-    // backend with camera rays in packets (the default), then alone.
-    let alone = RenderSettings {
-        batching: Batching::Alone,
-        ..settings.clone()
-    };
-    // A backend's two frames are neighbours in every round (forwards and
-    // backwards alike), so their ratio is taken round by round.
-    let samples = time_interleaved_samples(2 * backends.len(), budget.frame_repeats, |i| {
-        let settings = if i % 2 == 0 { &settings } else { &alone };
-        render(scene, &backends[i / 2], settings, &Silent)
+    // backend in the renderer's three modes: camera rays in packets (the
+    // default), every ray alone, every bounce in waves.
+    let modes = [
+        settings.clone(),
+        RenderSettings {
+            batching: Batching::Alone,
+            ..settings.clone()
+        },
+        RenderSettings {
+            batching: Batching::Waves,
+            ..settings.clone()
+        },
+    ];
+    let m = modes.len();
+    // A backend's frames are neighbours in every round (forwards and
+    // backwards alike), so their ratios are taken round by round.
+    let mut wave_times = vec![WaveTimes::default(); backends.len()];
+    let samples = time_interleaved_samples(m * backends.len(), budget.frame_repeats, |i| {
+        let out = render(scene, &backends[i / m], &modes[i % m], &Silent);
+        wave_times[i / m] += out.wave_times;
+        out
     });
-    let packet_frame = samples
-        .chunks(2)
-        .map(|pair| paired_ratio(&pair[0], &pair[1]))
+    let per_backend: Vec<&[Vec<f64>]> = samples.chunks(m).collect();
+    let packet_frame = per_backend
+        .iter()
+        .map(|modes| paired_ratio(&modes[0], &modes[1]))
         .collect();
-    let frames: Vec<Measured> = samples.into_iter().map(Measured::from_samples).collect();
-    let frame_seconds = frames.iter().step_by(2).copied().collect();
-    let frame_seconds_alone = frames.iter().skip(1).step_by(2).copied().collect();
+    let wave_frame = per_backend
+        .iter()
+        .map(|modes| paired_ratio(&modes[2], &modes[0]))
+        .collect();
+    let frames: Vec<Measured> = samples
+        .iter()
+        .cloned()
+        .map(Measured::from_samples)
+        .collect();
+    let frame_seconds = frames.iter().step_by(m).copied().collect();
+    let frame_seconds_alone = frames.iter().skip(1).step_by(m).copied().collect();
+    let frame_seconds_waves = frames.iter().skip(2).step_by(m).copied().collect();
     Ok(SceneResult {
         size,
         scene: rel.to_string(),
@@ -359,5 +387,8 @@ pub fn measure(
         frame_seconds,
         frame_seconds_alone,
         packet_frame,
+        frame_seconds_waves,
+        wave_frame,
+        wave_times,
     })
 }

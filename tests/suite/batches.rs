@@ -379,6 +379,61 @@ fn batching_leaves_the_image_unchanged() {
     }
 }
 
+/// A wave renderer says where its time went: each phase (extension-ray
+/// batches, shadow-ray batches, stepping paths) took some, together no
+/// more than the frame on one thread (each is timed inside it); the other
+/// modes time nothing.
+#[test]
+fn waves_say_where_their_time_went() {
+    let scene = crate::common::default_scene();
+    let native = BackendConfig::NATIVE.build(&scene).expect("native builds");
+    let settings = RenderSettings {
+        width: 40,
+        height: 30,
+        samples: 4,
+        seed: 3,
+        threads: 1,
+        shading: Shading::Path(PathSettings {
+            light_samples: 1,
+            max_bounces: 3,
+            ..PathSettings::default()
+        }),
+        ..RenderSettings::default()
+    };
+    let waves = render(
+        &scene,
+        &native,
+        &RenderSettings {
+            batching: Batching::Waves,
+            ..settings.clone()
+        },
+        &Silent,
+    );
+    let t = waves.wave_times;
+    assert!(
+        t.closest > 0.0 && t.occluded > 0.0 && t.paths > 0.0,
+        "a phase took no time: {t:?}"
+    );
+    assert!(t.total() <= waves.seconds, "{t:?} in {} s", waves.seconds);
+    let shares = t.shares();
+    assert!(
+        (shares.iter().sum::<f64>() - 1.0).abs() < 1e-9,
+        "{shares:?}"
+    );
+    for batching in [Batching::Camera, Batching::Alone] {
+        let out = render(
+            &scene,
+            &native,
+            &RenderSettings {
+                batching,
+                ..settings.clone()
+            },
+            &Silent,
+        );
+        assert_eq!(out.wave_times, Default::default(), "{batching:?}");
+    }
+}
+
 /// Every SIMD intrinsic is inlined into the `#[target_feature]` kernel that
 /// calls it. One reached through code without the features (a closure run
 /// by `array::map`, issue 49) stays a function call that passes vectors

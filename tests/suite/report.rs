@@ -122,6 +122,28 @@ fn quick_report_writes_every_section_and_the_headline_figures() {
         assert!(scene["frame_seconds_without_packets"]["native"]
             .as_f64()
             .is_some());
+        // Every backend's frame in the three modes, with where its waves'
+        // time went.
+        let frames = scene["frames"].as_array().expect("frame rows");
+        let backends = scene["frame_seconds"].as_object().expect("frames").len();
+        assert!(backends >= 3, "native and both Embrees: {backends}");
+        assert_eq!(frames.len(), backends, "{frames:?}");
+        for row in frames {
+            for key in ["default_seconds", "alone_seconds", "waves_seconds"] {
+                let x = row[key].as_f64().unwrap_or(f64::NAN);
+                assert!(x.is_finite() && x > 0.0, "{key} = {x}: {row}");
+            }
+            let percent: Vec<f64> = [
+                "waves_extension_percent",
+                "waves_shadow_percent",
+                "waves_paths_percent",
+            ]
+            .iter()
+            .map(|k| row[*k].as_f64().unwrap_or(f64::NAN))
+            .collect();
+            assert!(percent.iter().all(|p| *p > 0.0), "{row}");
+            assert!((percent.iter().sum::<f64>() - 100.0).abs() < 1e-6, "{row}");
+        }
     }
     let headline = json["headline"].as_array().expect("headline rows");
     let row = |measure: &str| {
