@@ -1,4 +1,6 @@
 use super::*;
+use crate::accel::native::cpu::Avx2;
+use crate::accel::native::NativeOptions;
 use crate::accel::Accel;
 use crate::parity::rays::{occlusion_rays, shadow_rays};
 use crate::scene::builtin::CORNELL;

@@ -1,0 +1,75 @@
+//! Which packet kernels a tree's batch queries run, chosen once per tree
+//! from the CPU and the options.
+
+#[cfg(target_arch = "x86_64")]
+use super::super::cpu::{Avx2, Avx512};
+use super::super::NativeOptions;
+
+/// Which packet kernels a tree's batch queries run.
+#[derive(Clone, Copy, Debug)]
+pub(in crate::accel::native) enum PacketKernels {
+    /// Sixteen rays in AVX-512 lanes.
+    #[cfg(target_arch = "x86_64")]
+    Avx512(Avx512),
+    /// Eight rays in AVX2 lanes.
+    #[cfg(target_arch = "x86_64")]
+    Avx2(Avx2),
+    /// Sixteen rays in two AVX2 registers per value.
+    #[cfg(target_arch = "x86_64")]
+    Avx2Wide(Avx2),
+    /// AVX2 without a width asked for: each query at the width that
+    /// measured faster for it ([`Query::TWO_REGISTERS`]).
+    #[cfg(target_arch = "x86_64")]
+    Avx2ByQuery(Avx2),
+    /// None: every ray alone.
+    None,
+}
+
+impl PacketKernels {
+    /// What a batch query runs, as the backend's stats name it.
+    pub(in crate::accel::native) fn describe(self) -> &'static str {
+        match self {
+            #[cfg(target_arch = "x86_64")]
+            PacketKernels::Avx512(_) => {
+                "packets of 16 rays (AVX-512) where 12 share an octant; other closest hits alone, other occlusion rays in streams of 64"
+            }
+            #[cfg(target_arch = "x86_64")]
+            PacketKernels::Avx2(_) => {
+                "packets of 8 rays (AVX2) where 6 share an octant; other closest hits alone, other occlusion rays in streams of 64"
+            }
+            #[cfg(target_arch = "x86_64")]
+            PacketKernels::Avx2Wide(_) => {
+                "packets of 16 rays (AVX2, two registers each) where 12 share an octant; other closest hits alone, other occlusion rays in streams of 64"
+            }
+            #[cfg(target_arch = "x86_64")]
+            PacketKernels::Avx2ByQuery(_) => {
+                "closest hits in packets of 8 rays (AVX2) where 6 share an octant, occlusion in packets of 16 (AVX2, two registers each) where 12 do; other closest hits alone, other occlusion rays in streams of 64"
+            }
+            PacketKernels::None => "single-ray loop (no AVX2)",
+        }
+    }
+
+    /// The widest kernels the CPU runs, unless `options` turn SIMD off or
+    /// ask for a width (`packet_lanes` 8 or 16; 16 without AVX-512 is two
+    /// AVX2 registers per value). Without AVX-512 and without a width
+    /// asked for, each query takes the width that measured faster for it.
+    pub(in crate::accel::native) fn detect(options: &NativeOptions) -> PacketKernels {
+        if !options.simd {
+            return PacketKernels::None;
+        }
+        #[cfg(target_arch = "x86_64")]
+        {
+            if let Some(wide) = Avx512::detect().filter(|_| options.packet_lanes != 8) {
+                return PacketKernels::Avx512(wide);
+            }
+            if let Some(cpu) = Avx2::detect() {
+                return match options.packet_lanes {
+                    16 => PacketKernels::Avx2Wide(cpu),
+                    8 => PacketKernels::Avx2(cpu),
+                    _ => PacketKernels::Avx2ByQuery(cpu),
+                };
+            }
+        }
+        PacketKernels::None
+    }
+}
