@@ -10,10 +10,13 @@ use super::leaves::BlockLeaves;
 #[cfg(target_arch = "x86_64")]
 use super::leaves::BlockPacket;
 #[cfg(target_arch = "x86_64")]
-use super::traverse::packet::{self, Packet, PacketRays, Width, X8x2, X16, X8};
+use super::traverse::packet::{self, Packet, PacketRays, Width, X8x2, MAX_LANES, X16, X8};
+#[cfg(target_arch = "x86_64")]
+use super::traverse::PacketLeaves;
 use super::traverse::{self, BoxRay, BoxTest, Work};
 use super::triangle::TriangleBlock4;
 use super::{min_packet, node, NativeBvh, TriangleStore, PREFETCH_GROUPS, SINGLE_BELOW};
+use super::{node::ChildRef, tree::Tree};
 use crate::accel::TraceCounters;
 use crate::geom::{Hit, Ray};
 
@@ -82,6 +85,57 @@ pub(super) struct Closest;
 #[cfg(target_arch = "x86_64")]
 pub(super) struct Occluded;
 
+/// The packet's walk ([`packet::walk`], closest hits or, with `ANY`, any
+/// hits) from the root for its lanes that enter the root box (the others
+/// meet no triangle, as alone), with the fast box test where `test` asks
+/// for it and every lane's constants fit, else the robust one.
+///
+/// # Safety
+/// As [`packet::walk`].
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+unsafe fn walk_rooted<W: Width, const ANY: bool, P: PacketLeaves<W>>(
+    tree: &Tree,
+    p: &Packet<W>,
+    test: BoxTest,
+    t_max: &mut [f32; MAX_LANES],
+    leaves: &mut P,
+    single: &mut impl FnMut(&mut P, usize, ChildRef, &mut f32, &mut Work) -> bool,
+    work: &mut Work,
+) -> u32 {
+    let rooted = Packet {
+        rays: p.rays,
+        mask: p.mask & p.rays.rooted,
+    };
+    if rooted.mask == 0 {
+        return 0;
+    }
+    // SAFETY: the caller keeps `packet::walk`'s contract.
+    unsafe {
+        if test == BoxTest::Fast && rooted.fast_test_fits() {
+            packet::walk::<W, false, ANY, P>(
+                tree,
+                &rooted,
+                t_max,
+                leaves,
+                single,
+                work,
+                SINGLE_BELOW,
+            )
+        } else {
+            packet::walk::<W, true, ANY, P>(
+                tree,
+                &rooted,
+                t_max,
+                leaves,
+                single,
+                work,
+                SINGLE_BELOW,
+            )
+        }
+    }
+}
+
 #[cfg(target_arch = "x86_64")]
 impl Query for Closest {
     type Answer = Option<Hit>;
@@ -131,35 +185,15 @@ impl Query for Closest {
                     hit
                 };
             let mut leaves = BlockPacket::new(blocks, p.rays);
-            // The rays that miss the root box meet no triangle, as alone.
-            let rooted = Packet {
-                rays: p.rays,
-                mask: p.mask & p.rays.rooted,
-            };
-            let (t, l) = (&mut t_max, &mut leaves);
-            let found = if rooted.mask == 0 {
-                0
-            } else if test == BoxTest::Fast && rooted.fast_test_fits() {
-                packet::walk::<W, false, false, _>(
-                    tree,
-                    &rooted,
-                    t,
-                    l,
-                    &mut alone,
-                    work,
-                    SINGLE_BELOW,
-                )
-            } else {
-                packet::walk::<W, true, false, _>(
-                    tree,
-                    &rooted,
-                    t,
-                    l,
-                    &mut alone,
-                    work,
-                    SINGLE_BELOW,
-                )
-            };
+            let found = walk_rooted::<W, false, _>(
+                tree,
+                p,
+                test,
+                &mut t_max,
+                &mut leaves,
+                &mut alone,
+                work,
+            );
             // Without spheres a miss is one store, and no lane's branch depends
             // on whether it hit.
             let all = if bvh.sphere_items.is_empty() {
@@ -289,35 +323,8 @@ impl Query for Occluded {
                     traverse::any(tree, &box_ray, *t, &mut one, cpu, test, work, start)
                 };
             let mut leaves = BlockPacket::new(blocks, p.rays);
-            // The rays that miss the root box meet no triangle, as alone.
-            let rooted = Packet {
-                rays: p.rays,
-                mask: p.mask & p.rays.rooted,
-            };
-            let (t, l) = (&mut t_max, &mut leaves);
-            let blocked = if rooted.mask == 0 {
-                0
-            } else if test == BoxTest::Fast && rooted.fast_test_fits() {
-                packet::walk::<W, false, true, _>(
-                    tree,
-                    &rooted,
-                    t,
-                    l,
-                    &mut alone,
-                    work,
-                    SINGLE_BELOW,
-                )
-            } else {
-                packet::walk::<W, true, true, _>(
-                    tree,
-                    &rooted,
-                    t,
-                    l,
-                    &mut alone,
-                    work,
-                    SINGLE_BELOW,
-                )
-            };
+            let blocked =
+                walk_rooted::<W, true, _>(tree, p, test, &mut t_max, &mut leaves, &mut alone, work);
             for i in lanes_of(p.mask) {
                 out[i] = blocked & (1 << i) != 0
                     || (!bvh.sphere_items.is_empty()
