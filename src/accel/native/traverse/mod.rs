@@ -231,29 +231,7 @@ pub fn closest<L: Leaves>(
     work: &mut Work,
     start: ChildRef,
 ) -> bool {
-    if tree.is_empty() || (start == 0 && !ray.enters(tree.bounds(), *t_max)) {
-        return false;
-    }
-    // The kernels read nodes unchecked from `start` on: a reference this
-    // tree does not hold would be a bug upstream, stopped here.
-    assert!(
-        tree.holds(start),
-        "walk from {start}, not a reference of this tree"
-    );
-    #[cfg(target_arch = "x86_64")]
-    if let Some(cpu) = cpu {
-        // SAFETY: the token proves the CPU has the kernels' features, and
-        // the tree holds `start` (asserted above).
-        return unsafe {
-            if test == BoxTest::Fast && ray.fast_test_fits() {
-                avx2::walk::<false, false, L>(cpu, tree, ray, t_max, leaves, work, start)
-            } else {
-                avx2::walk::<true, false, L>(cpu, tree, ray, t_max, leaves, work, start)
-            }
-        };
-    }
-    let _ = (cpu, test);
-    scalar::walk::<false, L>(tree, ray, t_max, leaves, work, start)
+    walk::<false, L>(tree, ray, t_max, leaves, cpu, test, work, start)
 }
 
 /// Whether anything below `start` (as in [`closest`]) lies within
@@ -270,9 +248,28 @@ pub fn any<L: Leaves>(
     work: &mut Work,
     start: ChildRef,
 ) -> bool {
-    if tree.is_empty() || (start == 0 && !ray.enters(tree.bounds(), t_max)) {
+    walk::<true, L>(tree, ray, &mut { t_max }, leaves, cpu, test, work, start)
+}
+
+/// [`closest`] or, with `ANY`, [`any`]: the checks that make the kernels'
+/// unchecked reads sound, then the kernel the CPU and the box test pick.
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+fn walk<const ANY: bool, L: Leaves>(
+    tree: &Tree,
+    ray: &BoxRay,
+    t_max: &mut f32,
+    leaves: &mut L,
+    cpu: Option<Avx2>,
+    test: BoxTest,
+    work: &mut Work,
+    start: ChildRef,
+) -> bool {
+    if tree.is_empty() || (start == 0 && !ray.enters(tree.bounds(), *t_max)) {
         return false;
     }
+    // The kernels read nodes unchecked from `start` on: a reference this
+    // tree does not hold would be a bug upstream, stopped here.
     assert!(
         tree.holds(start),
         "walk from {start}, not a reference of this tree"
@@ -283,14 +280,14 @@ pub fn any<L: Leaves>(
         // the tree holds `start` (asserted above).
         return unsafe {
             if test == BoxTest::Fast && ray.fast_test_fits() {
-                avx2::walk::<false, true, L>(cpu, tree, ray, &mut { t_max }, leaves, work, start)
+                avx2::walk::<false, ANY, L>(cpu, tree, ray, t_max, leaves, work, start)
             } else {
-                avx2::walk::<true, true, L>(cpu, tree, ray, &mut { t_max }, leaves, work, start)
+                avx2::walk::<true, ANY, L>(cpu, tree, ray, t_max, leaves, work, start)
             }
         };
     }
     let _ = (cpu, test);
-    scalar::walk::<true, L>(tree, ray, &mut { t_max }, leaves, work, start)
+    scalar::walk::<ANY, L>(tree, ray, t_max, leaves, work, start)
 }
 
 /// Which of `rays` (at most [`STREAM`], those in `active`) anything
