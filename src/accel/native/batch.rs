@@ -47,10 +47,6 @@ pub(super) trait Query {
     /// Whether the rays of a batch that no packet takes are walked
     /// together ([`Query::rest`]) rather than one at a time.
     const STREAMS: bool;
-    /// Whether, on AVX2 without a width asked for, this query's packets
-    /// are sixteen rays in two registers per value ([`X8x2`]) rather than
-    /// eight ([`X8`]).
-    const TWO_REGISTERS: bool;
     /// The rays of a batch that no packet takes (`which`: indices into
     /// `rays`, at most [`traverse::STREAM`]), when [`Query::STREAMS`]; by
     /// default one at a time.
@@ -143,9 +139,6 @@ impl Query for Closest {
     // Closest hits keep single rays' front-to-back order; a stream that
     // shares nodes loses it (not measured yet).
     const STREAMS: bool = false;
-    // Camera rays, CBbunny, AVX2: 8 lanes 91-94 Mrays/s, 16 lanes in two
-    // registers 89-90 (the lane registers spill; docs/experiments.md).
-    const TWO_REGISTERS: bool = false;
     fn alone(bvh: &NativeBvh, ray: &Ray, counters: &mut TraceCounters) -> Option<Hit> {
         let vectors = ray.traceable_vectors()?;
         bvh.closest(ray, vectors, counters)
@@ -228,10 +221,6 @@ impl Query for Occluded {
     type Answer = bool;
     const MISS: bool = false;
     const STREAMS: bool = true;
-    // Light rays, CBbunny, AVX2: 16 lanes in two registers 48.8 Mrays/s
-    // against 44.4-44.9 in eight; shadow rays alike (27.2-27.3 and
-    // 27.0-27.2). An any-hit packet keeps no hit per lane nor child order.
-    const TWO_REGISTERS: bool = true;
     fn alone(bvh: &NativeBvh, ray: &Ray, counters: &mut TraceCounters) -> bool {
         ray.traceable_vectors()
             .is_some_and(|v| bvh.any(ray, v, counters))
@@ -480,8 +469,6 @@ impl NativeBvh {
             PacketKernels::Avx512(_) => (Self::group16::<Q>, 16),
             PacketKernels::Avx2(_) => (Self::group_avx2::<X8, Q>, 8),
             PacketKernels::Avx2Wide(_) => (Self::group_avx2::<X8x2, Q>, 16),
-            PacketKernels::Avx2ByQuery(_) if Q::TWO_REGISTERS => (Self::group_avx2::<X8x2, Q>, 16),
-            PacketKernels::Avx2ByQuery(_) => (Self::group_avx2::<X8, Q>, 8),
             PacketKernels::None => return None,
         };
         // Rays of groups that form no packet, traced together once there

@@ -52,10 +52,9 @@ pub struct NativeOptions {
     pub max_leaf: usize,
     /// Traverse with AVX2 when the CPU has it (else the scalar kernel).
     pub simd: bool,
-    /// Rays per packet of the batch queries: 0 the CPU's best (16 with
-    /// AVX-512; with AVX2 alone 8 for closest hits and 16 in two registers
-    /// for occlusion), 8 (AVX2 lanes even with AVX-512), or 16 (two AVX2
-    /// registers per value where the CPU has no AVX-512).
+    /// Rays per packet of the batch queries: 8 (AVX2 lanes even with
+    /// AVX-512), or any other value for sixteen (AVX-512 lanes, or two
+    /// AVX2 registers per value where the CPU has no AVX-512).
     pub packet_lanes: usize,
 }
 

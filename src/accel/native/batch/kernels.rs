@@ -17,10 +17,6 @@ pub(in crate::accel::native) enum PacketKernels {
     /// Sixteen rays in two AVX2 registers per value.
     #[cfg(target_arch = "x86_64")]
     Avx2Wide(Avx2),
-    /// AVX2 without a width asked for: each query at the width that
-    /// measured faster for it ([`Query::TWO_REGISTERS`]).
-    #[cfg(target_arch = "x86_64")]
-    Avx2ByQuery(Avx2),
     /// None: every ray alone.
     None,
 }
@@ -41,18 +37,16 @@ impl PacketKernels {
             PacketKernels::Avx2Wide(_) => {
                 "packets of 16 rays (AVX2, two registers each) where 12 share an octant; other closest hits alone, other occlusion rays in streams of 64"
             }
-            #[cfg(target_arch = "x86_64")]
-            PacketKernels::Avx2ByQuery(_) => {
-                "closest hits in packets of 8 rays (AVX2) where 6 share an octant, occlusion in packets of 16 (AVX2, two registers each) where 12 do; other closest hits alone, other occlusion rays in streams of 64"
-            }
             PacketKernels::None => "single-ray loop (no AVX2)",
         }
     }
 
-    /// The widest kernels the CPU runs, unless `options` turn SIMD off or
-    /// ask for a width (`packet_lanes` 8 or 16; 16 without AVX-512 is two
-    /// AVX2 registers per value). Without AVX-512 and without a width
-    /// asked for, each query takes the width that measured faster for it.
+    /// The kernels for `options`: none without SIMD; sixteen rays in
+    /// AVX-512 lanes where the CPU has AVX-512, unless `packet_lanes` asks
+    /// for eight; else, with AVX2, eight rays where eight are asked for
+    /// and otherwise sixteen in two registers per value, faster than eight
+    /// on every ray set measured since packets set up only the lanes that
+    /// enter the root (docs/experiments.md, stop 47).
     pub(in crate::accel::native) fn detect(options: &NativeOptions) -> PacketKernels {
         if !options.simd {
             return PacketKernels::None;
@@ -64,9 +58,8 @@ impl PacketKernels {
             }
             if let Some(cpu) = Avx2::detect() {
                 return match options.packet_lanes {
-                    16 => PacketKernels::Avx2Wide(cpu),
                     8 => PacketKernels::Avx2(cpu),
-                    _ => PacketKernels::Avx2ByQuery(cpu),
+                    _ => PacketKernels::Avx2Wide(cpu),
                 };
             }
         }
