@@ -19,6 +19,9 @@
 // Every unsafe operation sits in an `unsafe` block with its own SAFETY
 // note, also inside `unsafe fn`s.
 #![deny(unsafe_op_in_unsafe_fn)]
+// ... and clippy (in CI, `-D warnings`) holds every unsafe block and
+// `unsafe impl` to one.
+#![warn(clippy::undocumented_unsafe_blocks)]
 
 pub mod accel;
 pub mod bench;

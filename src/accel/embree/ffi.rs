@@ -122,6 +122,8 @@ pub struct Device<A: Api> {
 // SAFETY: Embree's API documentation ("Thread safety") allows device calls
 // from any thread; the error sink is behind a mutex.
 unsafe impl<A: Api> Send for Device<A> {}
+// SAFETY: as for `Send`: shared references only make device calls, which
+// Embree allows from any thread, and reach the sink through its mutex.
 unsafe impl<A: Api> Sync for Device<A> {}
 
 impl<A: Api> Device<A> {
@@ -227,6 +229,8 @@ pub struct Scene<'b, A: Api> {
 // used for ray queries ... from multiple threads"); the committed scene is
 // never modified through this type.
 unsafe impl<A: Api> Send for Scene<'_, A> {}
+// SAFETY: as for `Send`: through a shared reference the committed scene
+// only answers ray queries, which Embree allows from many threads at once.
 unsafe impl<A: Api> Sync for Scene<'_, A> {}
 
 impl<A: Api> Drop for SceneBuilder<'_, A> {

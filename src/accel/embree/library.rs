@@ -148,6 +148,8 @@ pub unsafe extern "C" fn record_error(user: *mut c_void, code: u32, message: *co
         let text = if message.is_null() {
             String::new()
         } else {
+            // SAFETY: `message` is not null and, as said above, a
+            // NUL-terminated string Embree owns during the call.
             unsafe { CStr::from_ptr(message) }
                 .to_string_lossy()
                 .into_owned()

@@ -16,7 +16,8 @@ mod raw {
         non_snake_case,
         dead_code,
         unsafe_op_in_unsafe_fn,
-        clippy::all
+        clippy::all,
+        clippy::undocumented_unsafe_blocks
     )]
     include!(concat!(env!("OUT_DIR"), "/embree3_bindings.rs"));
 }

@@ -133,6 +133,9 @@ pub(super) unsafe fn fields8(rays: &[Ray]) -> [__m256; 8] {
     }
 }
 
+// SAFETY: every method is an AVX2 (or FMA) intrinsic on `__m256` lanes or
+// plain scalar code, so it needs what the `Width` contract leaves to its
+// callers: AVX2 and FMA enabled in the calling kernel.
 unsafe impl Width for X8 {
     type V = __m256;
     const N: usize = 8;

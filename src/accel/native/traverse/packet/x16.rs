@@ -70,6 +70,9 @@ unsafe fn fields16(rays: &[Ray; 16]) -> [__m512; 8] {
     }
 }
 
+// SAFETY: every method is an AVX-512F intrinsic on `__m512` lanes (or an
+// AVX2 one) or plain scalar code, so it needs what the `Width` contract
+// leaves to its callers: AVX-512F and AVX2 enabled in the calling kernel.
 unsafe impl Width for X16 {
     type V = __m512;
     const N: usize = 16;
