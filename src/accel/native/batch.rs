@@ -44,12 +44,9 @@ pub(super) trait Query {
     type Answer: Copy;
     const MISS: Self::Answer;
     fn alone(bvh: &NativeBvh, ray: &Ray, counters: &mut TraceCounters) -> Self::Answer;
-    /// Whether the rays of a batch that no packet takes are walked
-    /// together ([`Query::rest`]) rather than one at a time.
-    const STREAMS: bool;
     /// The rays of a batch that no packet takes (`which`: indices into
-    /// `rays`, at most [`traverse::STREAM`]), when [`Query::STREAMS`]; by
-    /// default one at a time.
+    /// `rays`, at most [`traverse::STREAM`]), walked together as one
+    /// stream.
     fn rest(
         bvh: &NativeBvh,
         blocks: &[TriangleBlock4],
@@ -57,12 +54,7 @@ pub(super) trait Query {
         which: &[u32],
         out: &mut [Self::Answer],
         counters: &mut TraceCounters,
-    ) {
-        let _ = blocks;
-        for &i in which {
-            out[i as usize] = Self::alone(bvh, &rays[i as usize], counters);
-        }
-    }
+    );
     /// # Safety
     /// From `W`'s `#[target_feature]` code, with a non-empty tree.
     unsafe fn packet<W: Width>(
@@ -136,12 +128,73 @@ unsafe fn walk_rooted<W: Width, const ANY: bool, P: PacketLeaves<W>>(
 impl Query for Closest {
     type Answer = Option<Hit>;
     const MISS: Option<Hit> = None;
-    // Closest hits keep single rays' front-to-back order; a stream that
-    // shares nodes loses it (not measured yet).
-    const STREAMS: bool = false;
     fn alone(bvh: &NativeBvh, ray: &Ray, counters: &mut TraceCounters) -> Option<Hit> {
         let vectors = ray.traceable_vectors()?;
         bvh.closest(ray, vectors, counters)
+    }
+
+    /// As one stream ([`traverse::closest_stream`]), then spheres (if
+    /// any) ray by ray within each ray's triangle hit.
+    fn rest(
+        bvh: &NativeBvh,
+        blocks: &[TriangleBlock4],
+        rays: &[Ray],
+        which: &[u32],
+        out: &mut [Option<Hit>],
+        counters: &mut TraceCounters,
+    ) {
+        let Some(cpu) = bvh.cpu else {
+            for &i in which {
+                out[i as usize] = Self::alone(bvh, &rays[i as usize], counters);
+            }
+            return;
+        };
+        let mut work = Work::default();
+        let unused = BoxRay::new(Vec3A::ZERO, Vec3A::X, 0.0);
+        let mut box_rays = [unused; traverse::STREAM];
+        let mut t_max = [0.0f32; traverse::STREAM];
+        let mut leaves: [BlockLeaves; traverse::STREAM] = std::array::from_fn(|k| BlockLeaves {
+            blocks,
+            ray: &rays[which.get(k).copied().unwrap_or(0) as usize],
+            best: None,
+        });
+        let mut active = 0u64;
+        for (k, &i) in which.iter().enumerate() {
+            let ray = &rays[i as usize];
+            if let Some((o, d)) = ray.traceable_vectors() {
+                active |= 1 << k;
+                box_rays[k] = BoxRay::new(o, d, ray.t_min);
+            }
+            t_max[k] = ray.t_max;
+        }
+        let n = which.len();
+        let (tree, test) = (&bvh.triangles, bvh.box_test);
+        traverse::closest_stream(
+            tree,
+            &box_rays[..n],
+            &mut t_max[..n],
+            active,
+            &mut leaves[..n],
+            cpu,
+            test,
+            &mut work,
+        );
+        for (k, &i) in which.iter().enumerate() {
+            let mut hit = leaves[k].best.map(|(b, lane, u, v)| Hit {
+                t: t_max[k],
+                prim: blocks[b as usize].prim(lane),
+                u,
+                v,
+            });
+            if active >> k & 1 != 0 && !bvh.sphere_items.is_empty() {
+                hit = bvh
+                    .closest_sphere(&rays[i as usize], &box_rays[k], &mut t_max[k], &mut work)
+                    .or(hit);
+            }
+            out[i as usize] = hit;
+        }
+        counters.box_tests += work.nodes * node::WIDTH as u64;
+        counters.prim_tests += work.items;
     }
 
     /// Triangles together, then spheres (if any) ray by ray within each
@@ -220,7 +273,6 @@ impl Query for Closest {
 impl Query for Occluded {
     type Answer = bool;
     const MISS: bool = false;
-    const STREAMS: bool = true;
     fn alone(bvh: &NativeBvh, ray: &Ray, counters: &mut TraceCounters) -> bool {
         ray.traceable_vectors()
             .is_some_and(|v| bvh.any(ray, v, counters))
@@ -444,13 +496,16 @@ impl NativeBvh {
     }
 
     /// A batch query through the packet kernels this tree may run; `None`
-    /// when it may not (no AVX2, watertight triangles, no triangles).
+    /// when it may not (no AVX2, watertight triangles, no triangles). The
+    /// rays that form no packet go as streams ([`Query::rest`]) where
+    /// `streams` says, else alone.
     #[cfg(target_arch = "x86_64")]
     pub(super) fn batch<Q: Query>(
         &self,
         rays: &[Ray],
         out: &mut [Q::Answer],
         counters: &mut TraceCounters,
+        streams: bool,
     ) -> Option<()> {
         let TriangleStore::Blocks(blocks) = &self.triangle_store else {
             return None;
@@ -503,7 +558,7 @@ impl NativeBvh {
             if formed {
                 continue;
             }
-            if !Q::STREAMS {
+            if !streams {
                 // No packet can form: the rays go alone, as single-ray
                 // queries do, outside the lanes' code (traced from inside
                 // it, incoherent batches ran at 0.93x single rays).

@@ -375,3 +375,109 @@ pub unsafe fn any_stream<const ROBUST: bool, L: Leaves>(
         }
     }
 }
+
+/// Closest hits of up to [`STREAM`] rays walking the tree together, as
+/// [`any_stream`] walks occlusion rays: each node visited once for the
+/// stream's rays that enter it within their current `t_max`, its entered
+/// children pushed with their rays in the octant order of the stream's
+/// lowest ray (nearest last). Each ray's `t_max` shrinks to its hits;
+/// `leaves[i]` keeps ray `i`'s nearest so far, with which a tie is
+/// decided by slot, so the visiting order cannot change an answer.
+/// Returns the rays that hit.
+///
+/// # Safety
+/// As [`any_stream`]; `leaves` as long as `rays`.
+#[target_feature(enable = "avx2,fma,popcnt,lzcnt,bmi1,bmi2")]
+pub unsafe fn closest_stream<const ROBUST: bool, L: Leaves>(
+    cpu: Avx2,
+    tree: &Tree,
+    rays: &[BoxRay],
+    t_max: &mut [f32],
+    active: u64,
+    leaves: &mut [L],
+    work: &mut Work,
+) -> u64 {
+    // SAFETY: as in `any_stream`.
+    unsafe {
+        let mut stack = AlignedStack::<(ChildRef, u64)>::new();
+        let stack = stack.as_mut_ptr();
+        let mut top = 0usize;
+        let mut found = 0u64;
+        let (mut current, mut mask) = (0 as ChildRef, active);
+        loop {
+            if mask != 0 && mask.count_ones() <= STREAM_ALONE && !is_leaf(current) {
+                let mut rest = mask;
+                while rest != 0 {
+                    let i = rest.trailing_zeros() as usize;
+                    rest &= rest - 1;
+                    if walk::<ROBUST, false, L>(
+                        cpu,
+                        tree,
+                        rays.get_unchecked(i),
+                        t_max.get_unchecked_mut(i),
+                        leaves.get_unchecked_mut(i),
+                        work,
+                        current,
+                    ) {
+                        found |= 1 << i;
+                    }
+                }
+            } else if mask != 0 {
+                if !is_leaf(current) {
+                    // SAFETY: as in `closest`.
+                    let node = tree.node_unchecked(current);
+                    work.nodes += u64::from(mask.count_ones());
+                    let (mut low, mut high) = (_mm256_setzero_si256(), _mm256_setzero_si256());
+                    let mut rest = mask;
+                    while rest != 0 {
+                        let i = rest.trailing_zeros() as usize;
+                        rest &= rest - 1;
+                        let ray = rays.get_unchecked(i);
+                        let far = _mm256_set1_ps(*t_max.get_unchecked(i));
+                        let (_, hits) = slab::<ROBUST>(node, &lanes::<ROBUST>(ray), far);
+                        let hits = _mm256_castps_si256(hits);
+                        let bit = _mm256_set1_epi64x((1u64 << i) as i64);
+                        let wide =
+                            |half: __m128i| _mm256_and_si256(_mm256_cvtepi32_epi64(half), bit);
+                        low = _mm256_or_si256(low, wide(_mm256_castsi256_si128(hits)));
+                        high = _mm256_or_si256(high, wide(_mm256_extracti128_si256::<1>(hits)));
+                    }
+                    let mut entering = [0u64; WIDTH];
+                    _mm256_storeu_si256(entering.as_mut_ptr().cast(), low);
+                    _mm256_storeu_si256(entering.as_mut_ptr().add(4).cast(), high);
+                    let octant = rays.get_unchecked(mask.trailing_zeros() as usize).octant();
+                    // In the octant order of the stream's lowest ray,
+                    // farthest first, so the nearest is walked first.
+                    for place in 0..WIDTH {
+                        let c = node.ordered(octant, place);
+                        let rays_in = entering[c];
+                        if rays_in != 0 {
+                            // SAFETY: every level leaves at most eight
+                            // entries and the depth is bounded by MAX_DEPTH.
+                            stack.add(top).write((node.child[c], rays_in));
+                            top += 1;
+                        }
+                    }
+                } else {
+                    let (first, count) = (leaf_first(current), leaf_count(current));
+                    let mut rest = mask;
+                    while rest != 0 {
+                        let i = rest.trailing_zeros() as usize;
+                        rest &= rest - 1;
+                        work.items += u64::from(count);
+                        let t = t_max.get_unchecked_mut(i);
+                        if let Some(hit) = leaves.get_unchecked_mut(i).nearest(first, count, *t) {
+                            *t = hit;
+                            found |= 1 << i;
+                        }
+                    }
+                }
+            }
+            if top == 0 {
+                return found;
+            }
+            top -= 1;
+            (current, mask) = *stack.add(top);
+        }
+    }
+}

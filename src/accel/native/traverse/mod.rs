@@ -329,6 +329,46 @@ pub fn any_stream<L: Leaves>(
     }
 }
 
+/// The closest hits of `rays` (at most [`STREAM`], those in `active`)
+/// walked as one stream ([`avx2::closest_stream`]); `leaves[i]` is ray
+/// `i`'s leaf test and keeps its hit, `t_max[i]` shrinks to it. The same
+/// answers as [`closest`] ray by ray. Returns the rays that hit.
+#[cfg(target_arch = "x86_64")]
+#[allow(clippy::too_many_arguments)]
+pub fn closest_stream<L: Leaves>(
+    tree: &Tree,
+    rays: &[BoxRay],
+    t_max: &mut [f32],
+    active: u64,
+    leaves: &mut [L],
+    cpu: Avx2,
+    test: BoxTest,
+    work: &mut Work,
+) -> u64 {
+    assert!(rays.len() <= STREAM && t_max.len() == rays.len() && leaves.len() == rays.len());
+    if tree.is_empty() {
+        return 0;
+    }
+    let mut entering = 0u64;
+    let mut fits = true;
+    for (i, (ray, &t)) in rays.iter().zip(t_max.iter()).enumerate() {
+        if active >> i & 1 != 0 && ray.enters(tree.bounds(), t) {
+            entering |= 1 << i;
+            fits &= ray.fast_test_fits();
+        }
+    }
+    // SAFETY: the token proves the CPU's features, the tree is not empty,
+    // and `entering` holds only rays of `rays`, whose `t_max` and `leaves`
+    // are as long (checked above).
+    unsafe {
+        if test == BoxTest::Fast && fits {
+            avx2::closest_stream::<false, L>(cpu, tree, rays, t_max, entering, leaves, work)
+        } else {
+            avx2::closest_stream::<true, L>(cpu, tree, rays, t_max, entering, leaves, work)
+        }
+    }
+}
+
 mod scalar;
 
 #[cfg(target_arch = "x86_64")]
