@@ -1,7 +1,7 @@
 //! Batch queries: a batch's rays in groups of the packet width, each
 //! group traced as a packet where enough of its rays share an octant
-//! ([`min_packet`]), the others one at a time (closest hits) or in
-//! streams (occlusion); the packet kernels chosen once per tree.
+//! ([`min_packet`]), the others in streams (or one at a time, the closest
+//! hits of a coherent batch); the packet kernels chosen once per tree.
 
 use glam::Vec3A;
 

@@ -27,15 +27,15 @@ impl PacketKernels {
         match self {
             #[cfg(target_arch = "x86_64")]
             PacketKernels::Avx512(_) => {
-                "packets of 16 rays (AVX-512) where 12 share an octant; other closest hits alone, other occlusion rays in streams of 64"
+                "packets of 16 rays (AVX-512) where 12 share an octant; the other rays in streams of 64 (closest hits of coherent batches alone)"
             }
             #[cfg(target_arch = "x86_64")]
             PacketKernels::Avx2(_) => {
-                "packets of 8 rays (AVX2) where 6 share an octant; other closest hits alone, other occlusion rays in streams of 64"
+                "packets of 8 rays (AVX2) where 6 share an octant; the other rays in streams of 64 (closest hits of coherent batches alone)"
             }
             #[cfg(target_arch = "x86_64")]
             PacketKernels::Avx2Wide(_) => {
-                "packets of 16 rays (AVX2, two registers each) where 12 share an octant; other closest hits alone, other occlusion rays in streams of 64"
+                "packets of 16 rays (AVX2, two registers each) where 12 share an octant; the other rays in streams of 64 (closest hits of coherent batches alone)"
             }
             PacketKernels::None => "single-ray loop (no AVX2)",
         }
