@@ -124,6 +124,29 @@ unsafe fn walk_rooted<W: Width, const ANY: bool, P: PacketLeaves<W>>(
     }
 }
 
+/// Prepares a stream's rays (`which`, indices into `rays`): each one's
+/// `t_max`, and the traceable ones as [`NativeBvh::closest`] prepares
+/// them; returns those as a mask over `which`.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+fn prepare_stream(
+    rays: &[Ray],
+    which: &[u32],
+    box_rays: &mut [BoxRay; traverse::STREAM],
+    t_max: &mut [f32; traverse::STREAM],
+) -> u64 {
+    let mut active = 0u64;
+    for (k, &i) in which.iter().enumerate() {
+        let ray = &rays[i as usize];
+        if let Some((o, d)) = ray.traceable_vectors() {
+            active |= 1 << k;
+            box_rays[k] = BoxRay::new(o, d, ray.t_min);
+        }
+        t_max[k] = ray.t_max;
+    }
+    active
+}
+
 #[cfg(target_arch = "x86_64")]
 impl Query for Closest {
     type Answer = Option<Hit>;
@@ -158,15 +181,7 @@ impl Query for Closest {
             ray: &rays[which.get(k).copied().unwrap_or(0) as usize],
             best: None,
         });
-        let mut active = 0u64;
-        for (k, &i) in which.iter().enumerate() {
-            let ray = &rays[i as usize];
-            if let Some((o, d)) = ray.traceable_vectors() {
-                active |= 1 << k;
-                box_rays[k] = BoxRay::new(o, d, ray.t_min);
-            }
-            t_max[k] = ray.t_max;
-        }
+        let active = prepare_stream(rays, which, &mut box_rays, &mut t_max);
         let n = which.len();
         let (tree, test) = (&bvh.triangles, bvh.box_test);
         traverse::closest_stream(
@@ -299,15 +314,7 @@ impl Query for Occluded {
         let unused = BoxRay::new(Vec3A::ZERO, Vec3A::X, 0.0);
         let mut box_rays = [unused; traverse::STREAM];
         let mut t_max = [0.0f32; traverse::STREAM];
-        let mut active = 0u64;
-        for (k, &i) in which.iter().enumerate() {
-            let ray = &rays[i as usize];
-            if let Some((o, d)) = ray.traceable_vectors() {
-                active |= 1 << k;
-                box_rays[k] = BoxRay::new(o, d, ray.t_min);
-            }
-            t_max[k] = ray.t_max;
-        }
+        let active = prepare_stream(rays, which, &mut box_rays, &mut t_max);
         let n = which.len();
         let mut leaves = |k: usize| BlockLeaves {
             blocks,

@@ -310,14 +310,7 @@ pub fn any_stream<L: Leaves>(
     if tree.is_empty() {
         return 0;
     }
-    let mut entering = 0u64;
-    let mut fits = true;
-    for (i, (ray, &t)) in rays.iter().zip(t_max).enumerate() {
-        if active >> i & 1 != 0 && ray.enters(tree.bounds(), t) {
-            entering |= 1 << i;
-            fits &= ray.fast_test_fits();
-        }
-    }
+    let (entering, fits) = stream_entry(tree, rays, t_max, active);
     // SAFETY: the token proves the CPU's features, the tree is not empty,
     // and `entering` holds only rays of `rays` (checked above).
     unsafe {
@@ -349,14 +342,7 @@ pub fn closest_stream<L: Leaves>(
     if tree.is_empty() {
         return 0;
     }
-    let mut entering = 0u64;
-    let mut fits = true;
-    for (i, (ray, &t)) in rays.iter().zip(t_max.iter()).enumerate() {
-        if active >> i & 1 != 0 && ray.enters(tree.bounds(), t) {
-            entering |= 1 << i;
-            fits &= ray.fast_test_fits();
-        }
-    }
+    let (entering, fits) = stream_entry(tree, rays, t_max, active);
     // SAFETY: the token proves the CPU's features, the tree is not empty,
     // and `entering` holds only rays of `rays`, whose `t_max` and `leaves`
     // are as long (checked above).
@@ -367,6 +353,23 @@ pub fn closest_stream<L: Leaves>(
             avx2::closest_stream::<true, L>(cpu, tree, rays, t_max, entering, leaves, work)
         }
     }
+}
+
+/// The rays of a stream (those in `active`) that enter the tree's root box
+/// within their `t_max`, and whether all of them may take the fast box
+/// test.
+#[cfg(target_arch = "x86_64")]
+#[inline(always)]
+fn stream_entry(tree: &Tree, rays: &[BoxRay], t_max: &[f32], active: u64) -> (u64, bool) {
+    let mut entering = 0u64;
+    let mut fits = true;
+    for (i, (ray, &t)) in rays.iter().zip(t_max).enumerate() {
+        if active >> i & 1 != 0 && ray.enters(tree.bounds(), t) {
+            entering |= 1 << i;
+            fits &= ray.fast_test_fits();
+        }
+    }
+    (entering, fits)
 }
 
 mod scalar;
