@@ -20,7 +20,7 @@ use crate::render::film::{check_writable, rate_path, write_files, Exposure, Film
 use crate::render::integrator::{Background, BounceView, DirectEstimator};
 use crate::render::{render, Batching, RenderOutput, RenderSettings};
 use crate::scene::environment::{EnvSampling, Environment};
-use crate::scene::NormalMode;
+use crate::scene::{NormalMode, Scene};
 
 #[derive(Args, Debug, Clone)]
 pub struct RenderArgs {
@@ -51,6 +51,11 @@ pub struct RenderArgs {
     /// Write the camera this render uses to FILE in the course's format.
     #[arg(long, value_name = "FILE")]
     pub save_camera: Option<PathBuf>,
+    /// Also write this render as a Mitsuba 3 scene in DIR (new or empty):
+    /// scene.xml and its meshes, same camera, samples and depth
+    /// (`tools/mitsuba_render.py DIR` renders it and compares).
+    #[arg(long, value_name = "DIR")]
+    pub mitsuba: Option<PathBuf>,
     /// Thin lens: lens radius in scene units (depth of field; 0: pinhole).
     #[arg(short = 'b', value_name = "RADIUS")]
     pub lens_radius: Option<f32>,
@@ -326,6 +331,10 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
         check_writable(camera).map_err(|e| format!("--save-camera: {e}"))?;
     }
     outputs_spare_inputs(args, &output, settings.adaptive.is_some())?;
+    if let Some(dir) = &args.mitsuba {
+        crate::render::mitsuba::check_settings(&settings)?;
+        check_mitsuba_dir(dir)?;
+    }
     let preset = args.preset_options();
     if !preset.is_empty() {
         // The same render named in full, as it works from any folder: the
@@ -451,6 +460,10 @@ pub fn render_with(args: &RenderArgs, settings: &RenderSettings) -> Result<Rende
         say!("wrote the camera to {}", path.display());
     }
 
+    if let Some(dir) = &args.mitsuba {
+        write_mitsuba(dir, &scene, settings)?;
+    }
+
     if let Some(cap) = Isa::cap_note() {
         say!("{cap}");
     }
@@ -519,6 +532,58 @@ fn outputs_spare_inputs(args: &RenderArgs, output: &Path, adaptive: bool) -> Res
             }
         }
     }
+    Ok(())
+}
+
+/// `Err` unless `dir` can take a Mitsuba scene without touching a file:
+/// it does not exist yet (its parent does) or is an empty folder.
+fn check_mitsuba_dir(dir: &Path) -> Result<(), String> {
+    let fail = |why: &str| Err(format!("--mitsuba {}: {why}", dir.display()));
+    match std::fs::symlink_metadata(dir) {
+        Ok(meta) if !meta.is_dir() => fail("is not a folder"),
+        Ok(_) => match std::fs::read_dir(dir).map(|mut e| e.next().is_none()) {
+            Ok(true) => Ok(()),
+            Ok(false) => fail("is not empty; give a new or empty folder"),
+            Err(e) => fail(&e.to_string()),
+        },
+        Err(_) => {
+            let parent = dir.parent().filter(|p| !p.as_os_str().is_empty());
+            match parent {
+                Some(p) if !p.is_dir() => fail("its parent folder does not exist"),
+                _ => Ok(()),
+            }
+        }
+    }
+}
+
+/// Writes the Mitsuba scene of this render into `dir` (checked by
+/// [`check_mitsuba_dir`]), every file or none.
+fn write_mitsuba(dir: &Path, scene: &Scene, settings: &RenderSettings) -> Result<(), String> {
+    use crate::render::film::ImageFile;
+    use crate::render::mitsuba;
+    let exported = mitsuba::export(scene, settings)?;
+    let created = !dir.exists();
+    if created {
+        std::fs::create_dir(dir).map_err(|e| format!("--mitsuba {}: {e}", dir.display()))?;
+    }
+    let xml_path = dir.join(mitsuba::SCENE_FILE);
+    let mesh_paths: Vec<PathBuf> = exported.meshes.iter().map(|(n, _)| dir.join(n)).collect();
+    let mut files = vec![(xml_path.as_path(), ImageFile::Text(&exported.xml))];
+    for (path, (_, bytes)) in mesh_paths.iter().zip(&exported.meshes) {
+        files.push((path.as_path(), ImageFile::Bytes(bytes)));
+    }
+    if let Err(e) = write_files(&files) {
+        if created {
+            let _ = std::fs::remove_dir(dir);
+        }
+        return Err(format!("--mitsuba: {e}"));
+    }
+    say!(
+        "wrote the Mitsuba 3 scene {} ({} meshes); render it with tools/mitsuba_render.py {}",
+        xml_path.display(),
+        exported.meshes.len(),
+        dir.display()
+    );
     Ok(())
 }
 

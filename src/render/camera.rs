@@ -39,6 +39,20 @@ pub enum CameraMode {
 
 crate::choice!(CameraMode { Canonical => "canonical", Node => "node" });
 
+/// A camera's placement as another renderer takes it: the image spans
+/// `±tan_half_x` along the right axis one unit ahead, and the height
+/// follows from the image's aspect.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CameraView {
+    pub position: Vec3,
+    /// Unit view direction.
+    pub forward: Vec3,
+    /// Unit up axis of the image.
+    pub up: Vec3,
+    pub tan_half_x: f32,
+    pub lens: Option<ThinLens>,
+}
+
 #[derive(Clone, Copy, Debug)]
 pub struct Camera {
     pub position: Vec3,
@@ -172,6 +186,18 @@ impl Camera {
     /// focuses when no distance is given.
     pub fn target_distance(&self) -> f32 {
         self.target_distance
+    }
+
+    /// Where the camera stands and what it sees, for another renderer
+    /// to frame the same image (`--mitsuba`).
+    pub fn view(&self) -> CameraView {
+        CameraView {
+            position: self.position,
+            forward: -self.back,
+            up: self.up,
+            tan_half_x: self.tan_half_x,
+            lens: self.lens,
+        }
     }
 
     /// Whether rays need a lens sample ([`Camera::ray_through_lens`]).

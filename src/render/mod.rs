@@ -3,7 +3,8 @@
 //! - [`camera`]: ray generation and framing;
 //! - [`material`], [`light`]: scattering and light sampling;
 //! - [`integrator`]: normal shading and the path tracer;
-//! - [`film`]: the image and its files.
+//! - [`film`]: the image and its files;
+//! - [`mitsuba`]: the same render as a Mitsuba 3 scene.
 //!
 //! Rows are rendered in parallel on a rayon pool of `threads` threads. Every
 //! camera sample has its own random sequence (seed, pixel, sample index), so
@@ -15,6 +16,7 @@ pub mod film;
 pub mod integrator;
 pub mod light;
 pub mod material;
+pub mod mitsuba;
 pub mod part;
 pub mod wave;
 

@@ -353,9 +353,9 @@ impl Scene {
     }
 
     /// The shading normals at the corners of triangle `p` (its crease
-    /// corners where a crease split them).
+    /// corners where a crease split them); smooth shading only.
     #[inline]
-    fn vertex_normals(&self, p: usize) -> [Vec3; 3] {
+    pub fn corner_normals(&self, p: usize) -> [Vec3; 3] {
         match self.mesh.corner_normals.get(p) {
             Some(corners) => *corners,
             None => self.mesh.indices[p].map(|i| self.mesh.normals[i as usize]),
@@ -375,7 +375,7 @@ impl Scene {
             return Vec3::ZERO;
         }
         let weights = barycentrics(hit);
-        let normals = self.vertex_normals(p);
+        let normals = self.corner_normals(p);
         let n = normals[0] * weights[0] + normals[1] * weights[1] + normals[2] * weights[2];
         let normals = if n.dot(facing) < 0.0 {
             normals.map(|x| -x)
@@ -427,7 +427,7 @@ impl Scene {
             let ns = match self.normal_mode {
                 NormalMode::Flat => ng,
                 NormalMode::Smooth => {
-                    let [na, nb, nc] = self.vertex_normals(p);
+                    let [na, nb, nc] = self.corner_normals(p);
                     let n = (na * w + nb * u + nc * v).normalize_or_zero();
                     if n == Vec3::ZERO {
                         ng

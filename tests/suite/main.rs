@@ -15,6 +15,7 @@ mod hostile_inputs;
 mod environment;
 mod integrators;
 mod loader;
+mod mitsuba;
 mod parity;
 mod report;
 mod series;

@@ -313,6 +313,9 @@ pub enum ImageFile<'a> {
     Picture(&'a image::RgbImage),
     /// A table written with the images (Markdown, CSV), as it is.
     Text(&'a str),
+    /// Any other file the render writes (a mesh for another renderer), as
+    /// it is.
+    Bytes(&'a [u8]),
 }
 
 impl ImageFile<'_> {
@@ -341,6 +344,7 @@ impl ImageFile<'_> {
                 .write_to(out, image::ImageFormat::Png)
                 .map_err(|e| e.to_string()),
             ImageFile::Text(text) => out.write_all(text.as_bytes()).map_err(|e| e.to_string()),
+            ImageFile::Bytes(bytes) => out.write_all(bytes).map_err(|e| e.to_string()),
         }
     }
 }
