@@ -14,6 +14,7 @@ pub mod camera;
 pub mod camera_file;
 pub mod film;
 pub mod integrator;
+pub mod lanes;
 pub mod light;
 pub mod material;
 pub mod mitsuba;

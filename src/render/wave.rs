@@ -12,9 +12,12 @@ use std::time::Instant;
 use glam::Vec3;
 
 use super::integrator::{Integrator, PathState, ShadowTape};
+use super::lanes::surface_points;
+use crate::accel::native::cpu::Avx2;
 use crate::accel::{Accel, Coherence, TraceCounters};
 use crate::geom::sampling::Rng;
 use crate::geom::{Hit, Ray};
+use crate::scene::SurfacePoint;
 
 /// How the renderer hands rays to the backend. The default is the one
 /// that measured fastest (docs/design.md, Batching in the renderer).
@@ -91,6 +94,8 @@ pub struct Wave<'s> {
     /// The moving paths (indices into `states`) and their rays.
     moving: Vec<u32>,
     rays: Vec<Ray>,
+    /// The surface points of their hits, computed in lanes.
+    points: Vec<SurfacePoint>,
 }
 
 impl<'s> Wave<'s> {
@@ -135,6 +140,7 @@ impl<'s> Wave<'s> {
             return;
         }
         lap(&mut self.times.closest);
+        let avx2 = Avx2::detect();
         self.tape.clear();
         self.states.clear();
         self.states.resize_with(n, || PathState::Done(Vec3::ZERO));
@@ -169,9 +175,17 @@ impl<'s> Wave<'s> {
             );
             lap(&mut self.times.closest);
             self.tape.clear();
-            for (&k, &hit) in self.moving.iter().zip(&self.hits) {
+            surface_points(
+                integrator.scene(),
+                avx2,
+                &self.rays,
+                &self.hits[..m],
+                &mut self.points,
+            );
+            for ((&k, &hit), point) in self.moving.iter().zip(&self.hits).zip(&self.points) {
                 let (state, stream) = (&mut self.states[k as usize], &mut streams[k as usize]);
-                integrator.arrive_at(state, hit, stream, &mut self.tape, counters);
+                let point = hit.map(|_| point);
+                integrator.arrive_at(state, hit, point, stream, &mut self.tape, counters);
             }
             lap(&mut self.times.paths);
             self.answer_shadows(integrator, counters);

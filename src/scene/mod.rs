@@ -211,7 +211,7 @@ pub struct SurfacePoint {
 
 /// A triangle hit's barycentric weights `[w, u, v]` of its corners,
 /// clamped into the triangle.
-fn barycentrics(hit: &Hit) -> [f32; 3] {
+pub fn barycentric_weights(hit: &Hit) -> [f32; 3] {
     let u = hit.u.clamp(0.0, 1.0);
     let v = hit.v.clamp(0.0, 1.0 - u);
     [(1.0 - u - v).max(0.0), u, v]
@@ -239,9 +239,18 @@ pub fn terminator_lift(p: Vec3, corners: [Vec3; 3], normals: [Vec3; 3], weights:
 
 /// How many ulps of a primitive's size the error bound of a surface point
 /// allows for the intersection tests' own rounding.
-const TEST_ULPS: u32 = 12;
+pub const TEST_ULPS: u32 = 12;
 
 impl SurfacePoint {
+    /// A placeholder where no point is (a miss's entry in a list of them).
+    pub const NONE: SurfacePoint = SurfacePoint {
+        position: Vec3::ZERO,
+        error: Vec3::ZERO,
+        geometric_normal: Vec3::ZERO,
+        shading_normal: Vec3::ZERO,
+        material: 0,
+    };
+
     /// Where rays leaving this point start (see [`Ray::spawn`]).
     pub fn spawn_point(&self) -> SpawnPoint {
         SpawnPoint {
@@ -374,7 +383,7 @@ impl Scene {
         if p >= self.mesh.len() || self.normal_mode == NormalMode::Flat {
             return Vec3::ZERO;
         }
-        let weights = barycentrics(hit);
+        let weights = barycentric_weights(hit);
         let normals = self.corner_normals(p);
         let n = normals[0] * weights[0] + normals[1] * weights[1] + normals[2] * weights[2];
         let normals = if n.dot(facing) < 0.0 {
@@ -396,7 +405,7 @@ impl Scene {
         let p = hit.prim as usize;
         if p < self.mesh.len() {
             let [a, b, c] = self.mesh.corners(p);
-            let [w, u, v] = barycentrics(hit);
+            let [w, u, v] = barycentric_weights(hit);
             let size = (b - a)
                 .abs()
                 .max((c - a).abs())

@@ -40,7 +40,7 @@ use crate::accel::{Accel, TraceCounters};
 use crate::geom::ray::SpawnPoint;
 use crate::geom::sampling::{Frame, Rng};
 use crate::geom::{gamma, Hit, Ray};
-use crate::scene::{Material, Scene};
+use crate::scene::{Material, Scene, SurfacePoint};
 
 /// How direct lighting is estimated at a diffuse or glossy vertex.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
@@ -202,6 +202,11 @@ impl<'a, A: Accel> Integrator<'a, A> {
         self.accel
     }
 
+    /// The scene it renders.
+    pub fn scene(&self) -> &'a Scene {
+        self.scene
+    }
+
     /// Radiance (or normal colour) along a camera ray whose closest hit
     /// `first` was traced already (by the caller, alone or in a packet
     /// with its neighbours').
@@ -320,9 +325,17 @@ impl<'a, A: Accel> Integrator<'a, A> {
 
     /// The path's ray arrives at `hit`: counts what it sees there (the
     /// sky if it missed, emission if it hit a light), and gives the
-    /// vertex it scatters from, unless the path ends here.
+    /// vertex it scatters from, unless the path ends here. `point` is the
+    /// hit's surface point where the caller computed it already (a wave's
+    /// hits, in lanes: [`crate::render::lanes`]).
     #[inline(always)]
-    fn arrive(&self, walk: &mut Walk, hit: Option<Hit>, s: &PathSettings) -> Option<Vertex<'a>> {
+    fn arrive(
+        &self,
+        walk: &mut Walk,
+        hit: Option<Hit>,
+        point: Option<&SurfacePoint>,
+        s: &PathSettings,
+    ) -> Option<Vertex<'a>> {
         let (ray, depth, prev) = (&walk.ray, walk.depth, &walk.prev);
         let Some(hit) = hit else {
             if s.counts(depth) && !(depth == 0 && s.background == Background::Black) {
@@ -330,7 +343,10 @@ impl<'a, A: Accel> Integrator<'a, A> {
             }
             return None;
         };
-        let sp = self.scene.surface_point(ray, &hit);
+        let sp = match point {
+            Some(sp) => *sp,
+            None => self.scene.surface_point(ray, &hit),
+        };
         let m = &self.scene.materials[sp.material as usize];
         let wo = -ray.dir;
         if s.counts(depth) {

@@ -14,6 +14,7 @@ use crate::accel::{Accel, TraceCounters};
 use crate::geom::sampling::Rng;
 use crate::geom::{Hit, Ray};
 use crate::render::light::Facing;
+use crate::scene::SurfacePoint;
 
 /// A path as far as it has gone: what it has gathered, its throughput,
 /// the ray it is on and where that ray left.
@@ -103,17 +104,19 @@ impl<'a, A: Accel> Integrator<'a, A> {
             return;
         };
         *state = PathState::Moving(Walk::new(camera_ray));
-        self.arrive_at(state, first, rng, tape, counters);
+        self.arrive_at(state, first, None, rng, tape, counters);
     }
 
     /// A moving path arrives at `hit`, its ray's closest hit: it counts
     /// what it sees there and pauses at the vertex, its direct lighting
     /// recorded on `tape`, or it ends. Other states are left as they are.
+    /// `point`: the hit's surface point, if the caller has it.
     #[inline]
     pub fn arrive_at(
         &self,
         state: &mut PathState<'a>,
         hit: Option<Hit>,
+        point: Option<&SurfacePoint>,
         rng: &mut Rng,
         tape: &mut ShadowTape,
         counters: &mut TraceCounters,
@@ -122,7 +125,7 @@ impl<'a, A: Accel> Integrator<'a, A> {
             return;
         };
         let mut walk = *walk;
-        let Some(vertex) = self.arrive(&mut walk, hit, &s) else {
+        let Some(vertex) = self.arrive(&mut walk, hit, point, &s) else {
             *state = PathState::Done(walk.total);
             return;
         };
@@ -175,7 +178,7 @@ impl<'a, A: Accel> Integrator<'a, A> {
         rng: &mut Rng,
         counters: &mut TraceCounters,
     ) -> Vec3 {
-        while let Some(vertex) = self.arrive(&mut walk, hit, s) {
+        while let Some(vertex) = self.arrive(&mut walk, hit, None, s) {
             let mut now = Now {
                 accel: self.accel,
                 counters: &mut *counters,
