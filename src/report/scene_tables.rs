@@ -242,6 +242,8 @@ fn frames_table(r: &SceneResult) -> Table {
         ("waves_seconds", "waves, s"),
         ("waves_over_default", "waves / default"),
         ("waves_over_default_interval", "its interval"),
+        ("one_thread_default_seconds", "1 thread: camera rays batched, s"),
+        ("one_thread_waves_seconds", "1 thread: waves, s"),
         ("waves_extension_percent", "waves: extension-ray batches, %"),
         ("waves_shadow_percent", "waves: shadow-ray batches, %"),
         ("waves_paths_percent", "waves: stepping paths, %"),
@@ -262,6 +264,8 @@ fn frames_table(r: &SceneResult) -> Table {
             Cell::Measured(r.frame_seconds_waves[i], 3),
             Cell::Ratio(median),
             Cell::Text(format!("{lo:.3}–{hi:.3}")),
+            Cell::Measured(r.frame_seconds_one[i], 3),
+            Cell::Measured(r.frame_seconds_waves_one[i], 3),
             percent(shares[0]),
             percent(shares[1]),
             percent(shares[2]),
@@ -288,7 +292,7 @@ pub fn section(results: &[SceneResult]) -> (String, Value) {
         let (w, h, spp) = r.frame;
         let frames = frames_table(r);
         md += &format!(
-            "### {} ({}: {} primitives)\n\n{}\n{}\nCamera and light rays in every batched mode, 1 thread (Mrays/s by CPU time; each Embree called from C):\n\n{}\nThe same on {} threads, through each backend's batch query ({}):\n\n{}\nTime per frame ({w}x{h}, {spp} spp, 3 bounces, light sampling, {} threads) in the renderer's three modes, the same image in each: camera rays in batches (the default), every ray alone (`--no-packets`), every bounce's rays of a wave of paths in batches (`--waves`); waves / default is the median of the per-round ratios with its 95% interval, and the last columns say where the waves' thread time went:\n\n{}\n",
+            "### {} ({}: {} primitives)\n\n{}\n{}\nCamera and light rays in every batched mode, 1 thread (Mrays/s by CPU time; each Embree called from C):\n\n{}\nThe same on {} threads, through each backend's batch query ({}):\n\n{}\nTime per frame ({w}x{h}, {spp} spp, 3 bounces, light sampling, {} threads) in the renderer's three modes, the same image in each: camera rays in batches (the default), every ray alone (`--no-packets`), every bounce's rays of a wave of paths in batches (`--waves`); waves / default is the median of the per-round ratios with its 95% interval; the default and the waves again on one thread; and the last columns say where the waves' thread time went (both thread counts):\n\n{}\n",
             r.scene,
             r.size,
             r.primitives,

@@ -161,8 +161,12 @@ pub struct SceneResult {
     /// (`--waves`), and its ratio to the default mode round by round.
     pub frame_seconds_waves: Vec<Measured>,
     pub wave_frame: Vec<(f64, f64, f64)>,
+    /// Per compared backend, the default frame and the waves' frame on one
+    /// thread (the fields above are on `threads`).
+    pub frame_seconds_one: Vec<Measured>,
+    pub frame_seconds_waves_one: Vec<Measured>,
     /// Per compared backend, where its waves' time went, summed over the
-    /// timed frames.
+    /// timed frames (on all threads and on one).
     pub wave_times: Vec<WaveTimes>,
 }
 
@@ -332,7 +336,13 @@ pub fn measure(
     // Interleaved as the rays are: a frame takes a tenth of a second, so
     // back-to-back repeats of one backend caught the machine's drift. Each
     // backend in the renderer's three modes: camera rays in packets (the
-    // default), every ray alone, every bounce in waves.
+    // default), every ray alone, every bounce in waves; then the default
+    // and the waves again on one thread.
+    let one = |batching| RenderSettings {
+        threads: 1,
+        batching,
+        ..settings.clone()
+    };
     let modes = [
         settings.clone(),
         RenderSettings {
@@ -343,6 +353,8 @@ pub fn measure(
             batching: Batching::Waves,
             ..settings.clone()
         },
+        one(Batching::Camera),
+        one(Batching::Waves),
     ];
     let m = modes.len();
     // A backend's frames are neighbours in every round (forwards and
@@ -370,6 +382,8 @@ pub fn measure(
     let frame_seconds = frames.iter().step_by(m).copied().collect();
     let frame_seconds_alone = frames.iter().skip(1).step_by(m).copied().collect();
     let frame_seconds_waves = frames.iter().skip(2).step_by(m).copied().collect();
+    let frame_seconds_one = frames.iter().skip(3).step_by(m).copied().collect();
+    let frame_seconds_waves_one = frames.iter().skip(4).step_by(m).copied().collect();
     Ok(SceneResult {
         size,
         scene: rel.to_string(),
@@ -389,6 +403,8 @@ pub fn measure(
         packet_frame,
         frame_seconds_waves,
         wave_frame,
+        frame_seconds_one,
+        frame_seconds_waves_one,
         wave_times,
     })
 }

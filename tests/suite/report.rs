@@ -122,14 +122,20 @@ fn quick_report_writes_every_section_and_the_headline_figures() {
         assert!(scene["frame_seconds_without_packets"]["native"]
             .as_f64()
             .is_some());
-        // Every backend's frame in the three modes, with where its waves'
-        // time went.
+        // Every backend's frame in the three modes, and the default and
+        // the waves on one thread, with where its waves' time went.
         let frames = scene["frames"].as_array().expect("frame rows");
         let backends = scene["frame_seconds"].as_object().expect("frames").len();
         assert!(backends >= 3, "native and both Embrees: {backends}");
         assert_eq!(frames.len(), backends, "{frames:?}");
         for row in frames {
-            for key in ["default_seconds", "alone_seconds", "waves_seconds"] {
+            for key in [
+                "default_seconds",
+                "alone_seconds",
+                "waves_seconds",
+                "one_thread_default_seconds",
+                "one_thread_waves_seconds",
+            ] {
                 let x = row[key].as_f64().unwrap_or(f64::NAN);
                 assert!(x.is_finite() && x > 0.0, "{key} = {x}: {row}");
             }
