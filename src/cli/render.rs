@@ -567,9 +567,9 @@ fn write_mitsuba(dir: &Path, scene: &Scene, settings: &RenderSettings) -> Result
         std::fs::create_dir(dir).map_err(|e| format!("--mitsuba {}: {e}", dir.display()))?;
     }
     let xml_path = dir.join(mitsuba::SCENE_FILE);
-    let mesh_paths: Vec<PathBuf> = exported.meshes.iter().map(|(n, _)| dir.join(n)).collect();
+    let paths: Vec<PathBuf> = exported.files.iter().map(|(n, _)| dir.join(n)).collect();
     let mut files = vec![(xml_path.as_path(), ImageFile::Text(&exported.xml))];
-    for (path, (_, bytes)) in mesh_paths.iter().zip(&exported.meshes) {
+    for (path, (_, bytes)) in paths.iter().zip(&exported.files) {
         files.push((path.as_path(), ImageFile::Bytes(bytes)));
     }
     if let Err(e) = write_files(&files) {
@@ -579,9 +579,9 @@ fn write_mitsuba(dir: &Path, scene: &Scene, settings: &RenderSettings) -> Result
         return Err(format!("--mitsuba: {e}"));
     }
     say!(
-        "wrote the Mitsuba 3 scene {} ({} meshes); render it with tools/mitsuba_render.py {}",
+        "wrote the Mitsuba 3 scene {} and the {} files it names; render it with tools/mitsuba_render.py {}",
         xml_path.display(),
-        exported.meshes.len(),
+        exported.files.len(),
         dir.display()
     );
     Ok(())

@@ -11,27 +11,36 @@
 //! and thin-lens cameras, a box pixel filter and `path`'s MIS of light and
 //! BSDF samples. Every opaque surface is `twosided`, as this renderer
 //! shades both faces. The shading normals are written per corner, so
-//! Mitsuba interpolates the normals this renderer interpolates. What does
-//! not map is refused with the option or scene part named: the ambient
-//! light (a hemisphere of the world, which Mitsuba's emitters do not
-//! have), environment maps, refraction-only surfaces, and the render
-//! options Mitsuba's path tracer has no counterpart of.
+//! Mitsuba interpolates the normals this renderer interpolates. The
+//! ambient light (radiance from the world's upper hemisphere; Mitsuba has
+//! no such emitter) becomes an environment map, black below the horizon.
+//! What does not map is refused with the option or scene part named:
+//! environment maps (`-e`), refraction-only surfaces, a black background
+//! under an ambient light, and the render options Mitsuba's path tracer
+//! has no counterpart of.
 
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
 
 use glam::Vec3;
 
-use super::integrator::{BounceView, DirectEstimator, Shading};
+use super::integrator::{Background, BounceView, DirectEstimator, Shading};
 use super::RenderSettings;
 use crate::scene::{Light, Material, NormalMode, Scene};
 
-/// The files of a Mitsuba scene: `scene.xml` and its meshes, by name.
+/// The files of a Mitsuba scene: `scene.xml` and the files it names.
 pub struct MitsubaScene {
     pub xml: String,
-    /// `(file name, binary PLY)` per mesh the XML names.
-    pub meshes: Vec<(String, Vec<u8>)>,
+    /// `(file name, bytes)` per file the XML names: a binary PLY per
+    /// material, and the sky's EXR where the scene has an ambient light.
+    pub files: Vec<(String, Vec<u8>)>,
 }
+
+/// The ambient light as an environment map: this many rows, the upper
+/// half the light's radiance and the lower half black (Mitsuba's maps
+/// put +Y at the top row). Bilinear lookups blur the horizon over one
+/// row, 0.09°.
+const SKY_ROWS: u32 = 2048;
 
 /// The XML's file name in the folder.
 pub const SCENE_FILE: &str = "scene.xml";
@@ -98,7 +107,7 @@ pub fn export(scene: &Scene, settings: &RenderSettings) -> Result<MitsubaScene, 
     );
     sensor(&mut xml, scene, settings);
 
-    let mut meshes = Vec::new();
+    let mut files = Vec::new();
     let mut by_material: BTreeMap<u32, Vec<usize>> = BTreeMap::new();
     for (t, &m) in scene.mesh.materials.iter().enumerate() {
         by_material.entry(m).or_default().push(t);
@@ -110,7 +119,7 @@ pub fn export(scene: &Scene, settings: &RenderSettings) -> Result<MitsubaScene, 
         // which side emits.
         let normals = scene.normal_mode == NormalMode::Smooth && !emits;
         let name = format!("mesh_{m}.ply");
-        meshes.push((name.clone(), ply(scene, triangles, normals)));
+        files.push((name.clone(), ply(scene, triangles, normals)));
         let _ = writeln!(xml, "  <shape type=\"ply\">\n    <string name=\"filename\" value=\"{name}\"/>");
         if !normals {
             xml += "    <boolean name=\"face_normals\" value=\"true\"/>\n";
@@ -129,6 +138,7 @@ pub fn export(scene: &Scene, settings: &RenderSettings) -> Result<MitsubaScene, 
         shape_body(&mut xml, material, s.material)?;
         xml += "  </shape>\n";
     }
+    let mut ambient = Vec3::ZERO;
     for light in &scene.lights {
         match *light {
             // Their surfaces are shapes above, with area emitters.
@@ -149,16 +159,22 @@ pub fn export(scene: &Scene, settings: &RenderSettings) -> Result<MitsubaScene, 
                     triple(radiance)
                 );
             }
-            Light::Ambient { .. } => {
-                return Err(format!(
-                    "--mitsuba: {}: the ambient light (radiance from the upper hemisphere of the world) has no Mitsuba 3 counterpart",
-                    scene.name
-                ))
-            }
+            Light::Ambient { radiance } => ambient += radiance,
         }
     }
+    if ambient != Vec3::ZERO {
+        if path.background == Background::Black {
+            return Err("--mitsuba: --background black under an ambient light has no Mitsuba 3 counterpart (its sky is seen where it lights)".into());
+        }
+        let name = "sky.exr".to_string();
+        files.push((name.clone(), sky(ambient)?));
+        let _ = writeln!(
+            xml,
+            "  <emitter type=\"envmap\">\n    <string name=\"filename\" value=\"{name}\"/>\n  </emitter>"
+        );
+    }
     xml += "</scene>\n";
-    Ok(MitsubaScene { xml, meshes })
+    Ok(MitsubaScene { xml, files })
 }
 
 /// The camera, sampler and film.
@@ -189,6 +205,19 @@ fn sensor(xml: &mut String, scene: &Scene, settings: &RenderSettings) {
         settings.width,
         settings.height,
     );
+}
+
+/// The ambient light's sky: `radiance` above the horizon, black below.
+fn sky(radiance: Vec3) -> Result<Vec<u8>, String> {
+    let image = image::Rgb32FImage::from_fn(4, SKY_ROWS, |_, row| {
+        let above = row < SKY_ROWS / 2;
+        image::Rgb(if above { radiance.to_array() } else { [0.0; 3] })
+    });
+    let mut bytes = std::io::Cursor::new(Vec::new());
+    image::DynamicImage::ImageRgb32F(image)
+        .write_to(&mut bytes, image::ImageFormat::OpenExr)
+        .map_err(|e| format!("--mitsuba: the sky's EXR: {e}"))?;
+    Ok(bytes.into_inner())
 }
 
 /// A shape's BSDF and, if its material emits, its area emitter.

@@ -1,6 +1,7 @@
 //! `hybrid render --mitsuba DIR`: the render as a Mitsuba 3 scene holds the
-//! scene's triangles, normals, lights, camera and path settings, and what
-//! Mitsuba cannot render the same way is refused before any file is made.
+//! scene's triangles, normals, lights (the ambient light as a sky map),
+//! camera and path settings, and what Mitsuba cannot render the same way
+//! is refused before any file is made.
 
 use std::path::Path;
 
@@ -137,7 +138,7 @@ fn what_mitsuba_cannot_render_the_same_way_is_refused_before_any_file() {
         args
     };
     for (scene, extra, expected) in [
-        (sky, &[][..], "ambient light"),
+        (sky, &["--background", "black"][..], "--background black under an ambient light"),
         (bunny, &["-l", "4"][..], "-l other than 1"),
         (bunny, &["--estimator", "light"][..], "--estimator"),
         (bunny, &["-o", "0"][..], "-o 0"),
@@ -157,4 +158,42 @@ fn what_mitsuba_cannot_render_the_same_way_is_refused_before_any_file() {
     assert_eq!(std::fs::read_to_string(dir.join("mi/scene.xml")).unwrap(), "mine");
     let series = ["series", bunny, "--vary", "s=1,2", "-r", "16", "12", "--mitsuba", "m2"];
     fails_in_one_line(&series, &dir, "--mitsuba");
+}
+
+#[test]
+fn an_ambient_light_becomes_a_sky_black_below_the_horizon() {
+    let Some(path) = shared("sky/bunny.dae") else {
+        return;
+    };
+    let scene = crate::common::load("sky/bunny.dae").unwrap();
+    let ambient: Vec3 = scene
+        .lights
+        .iter()
+        .filter_map(|l| match l {
+            hybrid::scene::Light::Ambient { radiance } => Some(*radiance),
+            _ => None,
+        })
+        .sum();
+    assert!(ambient.max_element() > 0.0, "sky/bunny.dae has an ambient light");
+    let dir = scratch("mitsuba-sky");
+    let args = ["render", path.to_str().unwrap(), "-r", "16", "12", "-s", "1"];
+    succeeds(&[&args[..], &["--mitsuba", "mi", "-f", "x.png"]].concat(), &dir);
+    let text = std::fs::read_to_string(dir.join("mi/scene.xml")).unwrap();
+    let doc = roxmltree::Document::parse(&text).unwrap();
+    let envmap = doc
+        .descendants()
+        .find(|n| n.has_tag_name("emitter") && n.attribute("type") == Some("envmap"))
+        .expect("an envmap emitter");
+    let file = envmap
+        .children()
+        .find(|n| n.attribute("name") == Some("filename"))
+        .and_then(|n| n.attribute("value"))
+        .unwrap();
+    let sky = image::open(dir.join("mi").join(file)).unwrap().to_rgb32f();
+    let h = sky.height();
+    assert!(h >= 1024, "a horizon sharp to a tenth of a degree needs rows: {h}");
+    for (_, y, p) in sky.enumerate_pixels() {
+        let expected = if y < h / 2 { ambient.to_array() } else { [0.0; 3] };
+        assert_eq!(p.0, expected, "row {y} of {h}");
+    }
 }
