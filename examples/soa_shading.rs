@@ -41,9 +41,15 @@ fn main() -> ExitCode {
         return ExitCode::from(2);
     };
     let accel = BackendConfig::NATIVE.build(&scene).expect("native build");
-    let (rays, hits): (Vec<Ray>, Vec<Option<Hit>>) =
-        real_hits(&scene, &accel).into_iter().map(|(r, h)| (r, Some(h))).unzip();
-    println!("{}: {} hits (camera rays and first bounces)", scene.name, hits.len());
+    let (rays, hits): (Vec<Ray>, Vec<Option<Hit>>) = real_hits(&scene, &accel)
+        .into_iter()
+        .map(|(r, h)| (r, Some(h)))
+        .unzip();
+    println!(
+        "{}: {} hits (camera rays and first bounces)",
+        scene.name,
+        hits.len()
+    );
 
     let mut scalar = vec![SurfacePoint::NONE; hits.len()];
     let mut lanes = Vec::new();
@@ -63,7 +69,11 @@ fn main() -> ExitCode {
         [p.position, p.error, p.geometric_normal, p.shading_normal]
             .map(|v| v.to_array().map(f32::to_bits))
     };
-    let differ = scalar.iter().zip(&lanes).filter(|(a, b)| bits(a) != bits(b)).count();
+    let differ = scalar
+        .iter()
+        .zip(&lanes)
+        .filter(|(a, b)| bits(a) != bits(b))
+        .count();
     let ns = |s: f64| s * 1e9 / hits.len() as f64;
     println!(
         "one at a time {:.2} ns per hit, eight lanes {:.2} ns per hit: {:.2}x; {differ} of {} hits differ in some bit",

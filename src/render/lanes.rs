@@ -79,7 +79,8 @@ fn group(
     pending: &[u32; L],
     out: &mut [SurfacePoint],
 ) {
-    let group: [(Ray, Hit); L] = pending.map(|k| (rays[k as usize], hits[k as usize].expect("a hit")));
+    let group: [(Ray, Hit); L] =
+        pending.map(|k| (rays[k as usize], hits[k as usize].expect("a hit")));
     let points = points_of(scene, avx2, &group);
     for (l, &k) in pending.iter().enumerate() {
         let (ray, hit) = &group[l];
@@ -186,7 +187,8 @@ unsafe fn points_avx2(scene: &Scene, group: &[(Ray, Hit); L]) -> Points {
         let ng = x.map(|v| v / len);
         // The smooth normal: interpolated, times the reciprocal of its
         // length (glam's `normalize_or_zero`), on the geometric side.
-        let s = [0, 1, 2].map(|a| n[0][a][l] * w[0][l] + n[1][a][l] * w[1][l] + n[2][a][l] * w[2][l]);
+        let s =
+            [0, 1, 2].map(|a| n[0][a][l] * w[0][l] + n[1][a][l] * w[1][l] + n[2][a][l] * w[2][l]);
         let recip = 1.0 / (s[0] * s[0] + s[1] * s[1] + s[2] * s[2]).sqrt();
         let unit = s.map(|v| v * recip);
         let dot = unit[0] * ng[0] + unit[1] * ng[1] + unit[2] * ng[2];
@@ -233,7 +235,8 @@ mod tests {
                 rays.push(ray);
                 if let Some(h) = crate::accel::Accel::closest_hit(&accel, &ray, &mut counters) {
                     let sp = scene.surface_point(&ray, &h);
-                    let d = ray.dir - sp.geometric_normal * (2.0 * ray.dir.dot(sp.geometric_normal));
+                    let d =
+                        ray.dir - sp.geometric_normal * (2.0 * ray.dir.dot(sp.geometric_normal));
                     rays.push(Ray::spawn(&sp.spawn_point(), d, f32::INFINITY));
                 }
             }
@@ -244,7 +247,11 @@ mod tests {
             .collect();
         let mut out = Vec::new();
         surface_points(&scene, Some(avx2), &rays, &hits, &mut out);
-        let grouped = hits.iter().flatten().filter(|h| (h.prim as usize) < scene.mesh.len()).count();
+        let grouped = hits
+            .iter()
+            .flatten()
+            .filter(|h| (h.prim as usize) < scene.mesh.len())
+            .count();
         assert!(grouped > 100 && grouped % L != 0, "{grouped} grouped hits");
         assert!(hits.iter().any(Option::is_none), "no misses among the hits");
         for ((ray, hit), point) in rays.iter().zip(&hits).zip(&out) {

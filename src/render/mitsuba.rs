@@ -120,7 +120,10 @@ pub fn export(scene: &Scene, settings: &RenderSettings) -> Result<MitsubaScene, 
         let normals = scene.normal_mode == NormalMode::Smooth && !emits;
         let name = format!("mesh_{m}.ply");
         files.push((name.clone(), ply(scene, triangles, normals)));
-        let _ = writeln!(xml, "  <shape type=\"ply\">\n    <string name=\"filename\" value=\"{name}\"/>");
+        let _ = writeln!(
+            xml,
+            "  <shape type=\"ply\">\n    <string name=\"filename\" value=\"{name}\"/>"
+        );
         if !normals {
             xml += "    <boolean name=\"face_normals\" value=\"true\"/>\n";
         }
@@ -143,7 +146,10 @@ pub fn export(scene: &Scene, settings: &RenderSettings) -> Result<MitsubaScene, 
         match *light {
             // Their surfaces are shapes above, with area emitters.
             Light::Area(_) | Light::Sphere { .. } => {}
-            Light::Point { position, intensity } => {
+            Light::Point {
+                position,
+                intensity,
+            } => {
                 let _ = writeln!(
                     xml,
                     "  <emitter type=\"point\">\n    <point name=\"position\" value=\"{}\"/>\n    <rgb name=\"intensity\" value=\"{}\"/>\n  </emitter>",
@@ -320,4 +326,3 @@ fn triple(v: Vec3) -> String {
 fn escape(text: &str) -> String {
     text.replace("--", "- -")
 }
-

@@ -242,7 +242,10 @@ fn frames_table(r: &SceneResult) -> Table {
         ("waves_seconds", "waves, s"),
         ("waves_over_default", "waves / default"),
         ("waves_over_default_interval", "its interval"),
-        ("one_thread_default_seconds", "1 thread: camera rays batched, s"),
+        (
+            "one_thread_default_seconds",
+            "1 thread: camera rays batched, s",
+        ),
         ("one_thread_waves_seconds", "1 thread: waves, s"),
         ("waves_extension_percent", "waves: extension-ray batches, %"),
         ("waves_shadow_percent", "waves: shadow-ray batches, %"),

@@ -26,9 +26,17 @@ fn read_ply(path: &Path) -> (Vec<Vec<f32>>, usize) {
             .unwrap()
     };
     let (vertices, faces) = (count("vertex"), count("face"));
-    let floats = header.lines().filter(|l| l.starts_with("property float")).count();
+    let floats = header
+        .lines()
+        .filter(|l| l.starts_with("property float"))
+        .count();
     let body = &bytes[at..];
-    assert_eq!(body.len(), vertices * floats * 4 + faces * 13, "{}", path.display());
+    assert_eq!(
+        body.len(),
+        vertices * floats * 4 + faces * 13,
+        "{}",
+        path.display()
+    );
     let vertex = (0..vertices)
         .map(|v| {
             (0..floats)
@@ -56,8 +64,21 @@ fn a_render_as_a_mitsuba_scene_holds_its_triangles_light_and_camera() {
     let file = path.to_str().unwrap();
     succeeds(
         &[
-            "render", file, "-r", "64", "48", "-s", "2", "-m", "5", "--seed", "9", "--mitsuba",
-            "mi", "-f", "ours.exr",
+            "render",
+            file,
+            "-r",
+            "64",
+            "48",
+            "-s",
+            "2",
+            "-m",
+            "5",
+            "--seed",
+            "9",
+            "--mitsuba",
+            "mi",
+            "-f",
+            "ours.exr",
         ],
         &dir,
     );
@@ -71,9 +92,20 @@ fn a_render_as_a_mitsuba_scene_holds_its_triangles_light_and_camera() {
             .to_string()
     };
     let root = doc.root_element();
-    let integrator = root.children().find(|n| n.has_tag_name("integrator")).unwrap();
-    assert_eq!(named(integrator, "max_depth"), "6", "five bounces are six segments");
-    assert_eq!(named(integrator, "rr_depth"), "7", "no Russian roulette here, none there");
+    let integrator = root
+        .children()
+        .find(|n| n.has_tag_name("integrator"))
+        .unwrap();
+    assert_eq!(
+        named(integrator, "max_depth"),
+        "6",
+        "five bounces are six segments"
+    );
+    assert_eq!(
+        named(integrator, "rr_depth"),
+        "7",
+        "no Russian roulette here, none there"
+    );
 
     // Every triangle once, at its place, with unit normals off the light.
     let mut triangles = 0;
@@ -115,13 +147,19 @@ fn a_render_as_a_mitsuba_scene_holds_its_triangles_light_and_camera() {
     let view = Camera::new(&scene, CameraMode::Canonical, 64, 48).view();
     let fov: f32 = named(sensor, "fov").parse().unwrap();
     assert!((fov - 2.0 * view.tan_half_x.atan().to_degrees()).abs() < 1e-4);
-    let lookat = sensor.descendants().find(|n| n.has_tag_name("lookat")).unwrap();
+    let lookat = sensor
+        .descendants()
+        .find(|n| n.has_tag_name("lookat"))
+        .unwrap();
     let origin = numbers(lookat.attribute("origin").unwrap());
     assert_eq!(origin, view.position.to_array().to_vec());
     assert_eq!(named(sensor, "sample_count"), "2");
     assert_eq!(named(sensor, "width"), "64");
     assert_eq!(named(sensor, "height"), "48");
-    assert!(dir.join("ours.exr").is_file(), "the render itself is written too");
+    assert!(
+        dir.join("ours.exr").is_file(),
+        "the render itself is written too"
+    );
 }
 
 #[test]
@@ -131,14 +169,28 @@ fn what_mitsuba_cannot_render_the_same_way_is_refused_before_any_file() {
     };
     let dir = scratch("mitsuba-refusals");
     let (bunny, sky) = (bunny.to_str().unwrap(), sky.to_str().unwrap());
-    let frame = ["-r", "16", "12", "-s", "1", "-f", "x.png", "--mitsuba", "mi"];
+    let frame = [
+        "-r",
+        "16",
+        "12",
+        "-s",
+        "1",
+        "-f",
+        "x.png",
+        "--mitsuba",
+        "mi",
+    ];
     let with = |scene: &str, extra: &[&str]| -> Vec<String> {
         let mut args = vec!["render".to_string(), scene.to_string()];
         args.extend(frame.iter().chain(extra).map(|s| s.to_string()));
         args
     };
     for (scene, extra, expected) in [
-        (sky, &["--background", "black"][..], "--background black under an ambient light"),
+        (
+            sky,
+            &["--background", "black"][..],
+            "--background black under an ambient light",
+        ),
         (bunny, &["-l", "4"][..], "-l other than 1"),
         (bunny, &["--estimator", "light"][..], "--estimator"),
         (bunny, &["-o", "0"][..], "-o 0"),
@@ -155,8 +207,21 @@ fn what_mitsuba_cannot_render_the_same_way_is_refused_before_any_file() {
     let args = with(bunny, &[]);
     let args: Vec<&str> = args.iter().map(String::as_str).collect();
     fails_in_one_line(&args, &dir, "is not empty");
-    assert_eq!(std::fs::read_to_string(dir.join("mi/scene.xml")).unwrap(), "mine");
-    let series = ["series", bunny, "--vary", "s=1,2", "-r", "16", "12", "--mitsuba", "m2"];
+    assert_eq!(
+        std::fs::read_to_string(dir.join("mi/scene.xml")).unwrap(),
+        "mine"
+    );
+    let series = [
+        "series",
+        bunny,
+        "--vary",
+        "s=1,2",
+        "-r",
+        "16",
+        "12",
+        "--mitsuba",
+        "m2",
+    ];
     fails_in_one_line(&series, &dir, "--mitsuba");
 }
 
@@ -174,10 +239,24 @@ fn an_ambient_light_becomes_a_sky_black_below_the_horizon() {
             _ => None,
         })
         .sum();
-    assert!(ambient.max_element() > 0.0, "sky/bunny.dae has an ambient light");
+    assert!(
+        ambient.max_element() > 0.0,
+        "sky/bunny.dae has an ambient light"
+    );
     let dir = scratch("mitsuba-sky");
-    let args = ["render", path.to_str().unwrap(), "-r", "16", "12", "-s", "1"];
-    succeeds(&[&args[..], &["--mitsuba", "mi", "-f", "x.png"]].concat(), &dir);
+    let args = [
+        "render",
+        path.to_str().unwrap(),
+        "-r",
+        "16",
+        "12",
+        "-s",
+        "1",
+    ];
+    succeeds(
+        &[&args[..], &["--mitsuba", "mi", "-f", "x.png"]].concat(),
+        &dir,
+    );
     let text = std::fs::read_to_string(dir.join("mi/scene.xml")).unwrap();
     let doc = roxmltree::Document::parse(&text).unwrap();
     let envmap = doc
@@ -191,9 +270,16 @@ fn an_ambient_light_becomes_a_sky_black_below_the_horizon() {
         .unwrap();
     let sky = image::open(dir.join("mi").join(file)).unwrap().to_rgb32f();
     let h = sky.height();
-    assert!(h >= 1024, "a horizon sharp to a tenth of a degree needs rows: {h}");
+    assert!(
+        h >= 1024,
+        "a horizon sharp to a tenth of a degree needs rows: {h}"
+    );
     for (_, y, p) in sky.enumerate_pixels() {
-        let expected = if y < h / 2 { ambient.to_array() } else { [0.0; 3] };
+        let expected = if y < h / 2 {
+            ambient.to_array()
+        } else {
+            [0.0; 3]
+        };
         assert_eq!(p.0, expected, "row {y} of {h}");
     }
 }

@@ -22,7 +22,14 @@ use self::vary::{axes, fixed_options, flag, shown_values, Axis};
 /// file), which part of a frame a run renders (`--part`, `--samples`; a
 /// series renders whole images), and a safety limit (`--max-scene-mb`).
 /// (`--mitsuba`, one render's scene for another renderer, is refused.)
-const NOT_VARIED: [&str; 6] = ["f", "save-camera", "mitsuba", "part", "samples", "max-scene-mb"];
+const NOT_VARIED: [&str; 6] = [
+    "f",
+    "save-camera",
+    "mitsuba",
+    "part",
+    "samples",
+    "max-scene-mb",
+];
 
 /// Options a series can vary, as written after `--vary` (one letter: the
 /// short flag; otherwise the long one): `scene`, and every render option
@@ -134,7 +141,8 @@ pub fn check(args: &SeriesArgs, raw: &[OsString]) -> Result<(), String> {
 fn plan(args: &SeriesArgs, raw: &[OsString]) -> Result<Plan, String> {
     if args.render.mitsuba.is_some() {
         return Err(
-            "--mitsuba writes the scene of one render: give it to `hybrid render`, not a series".into(),
+            "--mitsuba writes the scene of one render: give it to `hybrid render`, not a series"
+                .into(),
         );
     }
     let axes = axes(&args.vary)?;
