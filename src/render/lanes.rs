@@ -62,7 +62,7 @@ pub fn surface_points(
         }
     }
     if let (Some(avx2), 1..) = (avx2, count) {
-        // The spare lanes repeat the last hit; only `count` are written.
+        // The spare lanes repeat the last hit, whose point they write again.
         let last = pending[count - 1];
         pending[count..].fill(last);
         group(scene, avx2, rays, hits, &pending, out);
