@@ -44,6 +44,19 @@ pub(super) trait Query {
     type Answer: Copy;
     const MISS: Self::Answer;
     fn alone(bvh: &NativeBvh, ray: &Ray, counters: &mut TraceCounters) -> Self::Answer;
+    /// The rays `which` of `rays` one at a time: [`Query::rest`] where the
+    /// CPU runs no stream kernel.
+    fn each_alone(
+        bvh: &NativeBvh,
+        rays: &[Ray],
+        which: &[u32],
+        out: &mut [Self::Answer],
+        counters: &mut TraceCounters,
+    ) {
+        for &i in which {
+            out[i as usize] = Self::alone(bvh, &rays[i as usize], counters);
+        }
+    }
     /// The rays of a batch that no packet takes (`which`: indices into
     /// `rays`, at most [`traverse::STREAM`]), walked together as one
     /// stream.
@@ -167,10 +180,7 @@ impl Query for Closest {
         counters: &mut TraceCounters,
     ) {
         let Some(cpu) = bvh.cpu else {
-            for &i in which {
-                out[i as usize] = Self::alone(bvh, &rays[i as usize], counters);
-            }
-            return;
+            return Self::each_alone(bvh, rays, which, out, counters);
         };
         let mut work = Work::default();
         let unused = BoxRay::new(Vec3A::ZERO, Vec3A::X, 0.0);
@@ -305,10 +315,7 @@ impl Query for Occluded {
         counters: &mut TraceCounters,
     ) {
         let Some(cpu) = bvh.cpu else {
-            for &i in which {
-                out[i as usize] = Self::alone(bvh, &rays[i as usize], counters);
-            }
-            return;
+            return Self::each_alone(bvh, rays, which, out, counters);
         };
         let mut work = Work::default();
         let unused = BoxRay::new(Vec3A::ZERO, Vec3A::X, 0.0);
