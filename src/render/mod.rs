@@ -295,9 +295,11 @@ fn converged(a: &Adaptive, n: u32, s1: f64, s2: f64) -> bool {
 
 /// Paths a wave holds at most: a row's pixels times as many of their
 /// samples as fit, and at least one sample of the row (a row wider than
-/// this is one wave per sample). A paused path is a few hundred bytes, so a wave's state
-/// stays within a few MB per thread (docs/design.md, Waves).
-pub const WAVE_PATHS: usize = 4096;
+/// this is one wave per sample). A paused path is a few hundred bytes, so a
+/// wave's state stays within half a MB per thread, in the core's L2 cache;
+/// 1024 measured faster than 256, 512, 2048, 4096 and 16384
+/// (docs/experiments.md, "Wave size, again").
+pub const WAVE_PATHS: usize = 1024;
 
 /// Row `y`'s pixels in `columns`: the sums of their samples (all of them,
 /// or the settings' sample range) in double precision into `sums`, and the

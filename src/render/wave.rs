@@ -219,6 +219,6 @@ mod tests {
         let per_path = std::mem::size_of::<PathState>();
         eprintln!("{per_path} bytes per path state");
         assert!(per_path <= 256, "{per_path} bytes per path state");
-        assert!(per_path * super::super::WAVE_PATHS <= 1 << 20);
+        assert!(per_path * super::super::WAVE_PATHS <= 1 << 18);
     }
 }
