@@ -144,10 +144,19 @@ impl<'s> Wave<'s> {
         self.tape.clear();
         self.states.clear();
         self.states.resize_with(n, || PathState::Done(Vec3::ZERO));
+        surface_points(
+            integrator.scene(),
+            avx2,
+            camera_rays,
+            &self.hits[..n],
+            &mut self.points,
+        );
         for (k, (state, stream)) in self.states.iter_mut().zip(&mut *streams).enumerate() {
             let (ray, hit) = (&camera_rays[k], self.hits[k]);
-            integrator.begin(ray, hit, stream, &mut self.tape, counters, state);
+            let point = hit.map(|_| &self.points[k]);
+            integrator.begin(ray, hit, point, stream, counters, state);
         }
+        self.light(integrator, streams, counters);
         lap(&mut self.times.paths);
         self.answer_shadows(integrator, counters);
         lap(&mut self.times.occluded);
@@ -183,15 +192,28 @@ impl<'s> Wave<'s> {
                 &mut self.points,
             );
             for ((&k, &hit), point) in self.moving.iter().zip(&self.hits).zip(&self.points) {
-                let (state, stream) = (&mut self.states[k as usize], &mut streams[k as usize]);
                 let point = hit.map(|_| point);
-                integrator.arrive_at(state, hit, point, stream, &mut self.tape, counters);
+                integrator.arrive_at(&mut self.states[k as usize], hit, point);
             }
+            self.light(integrator, streams, counters);
             lap(&mut self.times.paths);
             self.answer_shadows(integrator, counters);
             lap(&mut self.times.occluded);
         }
         values.extend(self.states.iter().map(|s| s.value().unwrap_or(Vec3::ZERO)));
+    }
+
+    /// The direct lighting of every path paused at a vertex, onto the
+    /// tape (in path order; the paths' other states are left alone).
+    fn light<A: Accel>(
+        &mut self,
+        integrator: &Integrator<'s, A>,
+        streams: &mut [Rng],
+        counters: &mut TraceCounters,
+    ) {
+        for (state, stream) in self.states.iter_mut().zip(streams) {
+            integrator.light_at(state, stream, &mut self.tape, counters);
+        }
     }
 
     /// The tape's shadow rays through one batch query.

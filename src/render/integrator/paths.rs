@@ -87,15 +87,15 @@ pub struct Paused<'s> {
 
 impl<'a, A: Accel> Integrator<'a, A> {
     /// Starts the path along a camera ray whose closest hit is `first`
-    /// and pauses it at its first vertex ([`Self::arrive_at`]). Normal
-    /// shading is done here.
+    /// (surface point `point`, if the caller has it) and pauses it at its
+    /// first vertex ([`Self::arrive_at`]). Normal shading is done here.
     #[inline]
     pub fn begin(
         &self,
         camera_ray: &Ray,
         first: Option<Hit>,
+        point: Option<&SurfacePoint>,
         rng: &mut Rng,
-        tape: &mut ShadowTape,
         counters: &mut TraceCounters,
         state: &mut PathState<'a>,
     ) {
@@ -104,22 +104,22 @@ impl<'a, A: Accel> Integrator<'a, A> {
             return;
         };
         *state = PathState::Moving(Walk::new(camera_ray));
-        self.arrive_at(state, first, None, rng, tape, counters);
+        self.arrive_at(state, first, point);
     }
 
     /// A moving path arrives at `hit`, its ray's closest hit: it counts
-    /// what it sees there and pauses at the vertex, its direct lighting
-    /// recorded on `tape`, or it ends. Other states are left as they are.
-    /// `point`: the hit's surface point, if the caller has it.
+    /// what it sees there and pauses at the vertex, or it ends. Other
+    /// states are left as they are. `point`: the hit's surface point, if
+    /// the caller has it. The vertex's direct lighting is the next step
+    /// ([`Self::light_at`]), a pass of its own over a wave's paths: two
+    /// short loops keep more paths' work in flight than one long one
+    /// (docs/experiments.md, stop 49).
     #[inline]
     pub fn arrive_at(
         &self,
         state: &mut PathState<'a>,
         hit: Option<Hit>,
         point: Option<&SurfacePoint>,
-        rng: &mut Rng,
-        tape: &mut ShadowTape,
-        counters: &mut TraceCounters,
     ) {
         let (PathState::Moving(walk), Shading::Path(s)) = (&mut *state, self.shading) else {
             return;
@@ -129,17 +129,33 @@ impl<'a, A: Accel> Integrator<'a, A> {
             *state = PathState::Done(walk.total);
             return;
         };
-        let (first_term, first_ray) = tape.ends();
-        let mut deferred = Deferred { tape, counters };
-        let lit = self.light(walk.depth, &vertex, &s, rng, &mut deferred);
-        let direct = lit.then(|| Span::since(first_term, first_ray, deferred.tape));
         // Written in place: a paused path is a few hundred bytes, and
         // returning it by value copied it into the caller's list.
         *state = PathState::Paused(Paused {
             walk,
             vertex,
-            direct,
+            direct: None,
         });
+    }
+
+    /// A path paused at a vertex records its direct lighting on `tape`
+    /// (if the vertex takes any), to be answered by one batch query of
+    /// the tape's shadow rays. Other states are left as they are.
+    #[inline]
+    pub fn light_at(
+        &self,
+        state: &mut PathState<'a>,
+        rng: &mut Rng,
+        tape: &mut ShadowTape,
+        counters: &mut TraceCounters,
+    ) {
+        let (PathState::Paused(paused), Shading::Path(s)) = (&mut *state, self.shading) else {
+            return;
+        };
+        let (first_term, first_ray) = tape.ends();
+        let mut deferred = Deferred { tape, counters };
+        let lit = self.light(paused.walk.depth, &paused.vertex, &s, rng, &mut deferred);
+        paused.direct = lit.then(|| Span::since(first_term, first_ray, deferred.tape));
     }
 
     /// Goes on with a paused path, `blocked` answering the tape's shadow
