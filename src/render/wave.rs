@@ -93,6 +93,9 @@ pub struct Wave<'s> {
     hits: Vec<Option<Hit>>,
     /// The moving paths (indices into `states`) and their rays.
     moving: Vec<u32>,
+    /// The paths paused at a vertex (indices into `states`, ascending):
+    /// the passes after a batch of hits visit only these, not the ended.
+    paused: Vec<u32>,
     rays: Vec<Ray>,
     /// The surface points of their hits, computed in lanes.
     points: Vec<SurfacePoint>,
@@ -151,10 +154,14 @@ impl<'s> Wave<'s> {
             &self.hits[..n],
             &mut self.points,
         );
+        self.paused.clear();
         for (k, (state, stream)) in self.states.iter_mut().zip(&mut *streams).enumerate() {
             let (ray, hit) = (&camera_rays[k], self.hits[k]);
             let point = hit.map(|_| &self.points[k]);
             integrator.begin(ray, hit, point, stream, counters, state);
+            if matches!(state, PathState::Paused(_)) {
+                self.paused.push(k as u32);
+            }
         }
         self.light(integrator, streams, counters);
         lap(&mut self.times.paths);
@@ -163,10 +170,11 @@ impl<'s> Wave<'s> {
         loop {
             self.moving.clear();
             self.rays.clear();
-            for (k, (state, stream)) in self.states.iter_mut().zip(&mut *streams).enumerate() {
+            for &k in &self.paused {
+                let (state, stream) = (&mut self.states[k as usize], &mut streams[k as usize]);
                 integrator.go_on(state, &self.tape, &self.blocked, stream);
                 if let Some(ray) = state.ray() {
-                    self.moving.push(k as u32);
+                    self.moving.push(k);
                     self.rays.push(*ray);
                 }
             }
@@ -191,9 +199,14 @@ impl<'s> Wave<'s> {
                 &self.hits[..m],
                 &mut self.points,
             );
+            self.paused.clear();
             for ((&k, &hit), point) in self.moving.iter().zip(&self.hits).zip(&self.points) {
                 let point = hit.map(|_| point);
-                integrator.arrive_at(&mut self.states[k as usize], hit, point);
+                let state = &mut self.states[k as usize];
+                integrator.arrive_at(state, hit, point);
+                if matches!(state, PathState::Paused(_)) {
+                    self.paused.push(k);
+                }
             }
             self.light(integrator, streams, counters);
             lap(&mut self.times.paths);
@@ -204,14 +217,15 @@ impl<'s> Wave<'s> {
     }
 
     /// The direct lighting of every path paused at a vertex, onto the
-    /// tape (in path order; the paths' other states are left alone).
+    /// tape (in path order).
     fn light<A: Accel>(
         &mut self,
         integrator: &Integrator<'s, A>,
         streams: &mut [Rng],
         counters: &mut TraceCounters,
     ) {
-        for (state, stream) in self.states.iter_mut().zip(streams) {
+        for &k in &self.paused {
+            let (state, stream) = (&mut self.states[k as usize], &mut streams[k as usize]);
             integrator.light_at(state, stream, &mut self.tape, counters);
         }
     }
