@@ -309,9 +309,9 @@ pub const CAMERA_WAVE_PATHS: usize = 4096;
 /// Row `y`'s pixels in `columns`: the sums of their samples (all of them,
 /// or the settings' sample range) in double precision into `sums`, and the
 /// number each took into `counts`. The paths of the row's unfinished
-/// pixels, for as many consecutive sample indices as fit in
-/// [`WAVE_PATHS`] ([`CAMERA_WAVE_PATHS`] unless `--waves`), are traced as one wave ([`Wave`], as
-/// `settings.batching` says). Each pixel takes its samples in order from
+/// pixels, for as many consecutive sample indices as fit in a wave
+/// ([`WAVE_PATHS`] with `--waves`, else [`CAMERA_WAVE_PATHS`]), are traced
+/// as one wave ([`Wave`], as `settings.batching` says). Each pixel takes its samples in order from
 /// its own random streams, its sums add them in sample order, and each
 /// path takes the same steps however it is batched, so the sums do not
 /// depend on the batching. Returns where the row's waves spent their time.
