@@ -5,8 +5,10 @@
  * rounds). Embree is opened with dlopen so that one source serves both
  * versions without their headers.
  *
- * With `packets` as the fourth argument it replays the camera and light
- * rays (the kinds `hybrid bench --batched` times) through rtcIntersect16 /
+ * The kinds of a render's waves (wave_bounce, wave_shadow) are
+ * replayed too where the folder holds them. With `packets` as the fourth
+ * argument it replays the camera and light rays and the waves' rays
+ * (what `hybrid bench --batched` times) through rtcIntersect16 /
  * rtcOccluded16 instead, sixteen consecutive rays a call, once without a
  * hint and once with the version's coherent flag (Embree 3's context flag
  * 1, Embree 4's query flag 1 << 16), each timed alone.
@@ -191,12 +193,14 @@ int main(int argc, char **argv) {
   rtcAttachGeometry(scene, geom);
   rtcReleaseGeometry(geom);
   rtcCommitScene(scene);
-  const char *kinds[] = {"camera", "camera_rows", "incoherent", "shadow", "bounce", "light"};
+  const char *kinds[] = {"camera", "camera_rows", "incoherent", "shadow", "bounce", "light",
+                         "wave_bounce", "wave_shadow"};
+  const int n_kinds = sizeof kinds / sizeof kinds[0];
   printf("Embree %d (%s), %llu triangles, %d rounds, Mrays/s by thread CPU time\n",
          EMBREE_MAJOR, argv[2], (unsigned long long)nt, rounds);
   unsigned coherent = EMBREE_MAJOR == 3 ? 1u : 1u << 16;
-  for (int k = 0; k < 6; k++) {
-    if (packets && k != 0 && k != 5) continue;
+  for (int k = 0; k < n_kinds; k++) {
+    if (packets && k != 0 && k < 5) continue;
     uint64_t n; uint32_t query;
     snprintf(path, sizeof path, "%s/%s.rays", argv[1], kinds[k]);
     float *rays = read_hybrid(path, "HYBRAYS1", 8, &n, &query);

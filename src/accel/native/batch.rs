@@ -80,6 +80,45 @@ pub(super) trait Query {
     );
 }
 
+/// What a batch query does with a group of rays besides a packet.
+#[cfg(target_arch = "x86_64")]
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Plan {
+    /// Groups that form no packet wait for a stream's worth
+    /// ([`Query::rest`]); else their rays go alone.
+    pub streams: bool,
+    /// A group whose every ray runs to infinity and whose origins spread
+    /// wider than this across the first ray's direction forms no packet:
+    /// parallel rays from scattered points (a directional light's shadow
+    /// rays from a low-resolution frame's hits) share few nodes, and a
+    /// packet walks the union of its rays' nodes
+    /// ([`super::SCATTERED_FRACTION`]). Infinite: no group is refused.
+    pub scattered: f32,
+}
+
+#[cfg(target_arch = "x86_64")]
+impl Plan {
+    /// Whether `rays` (one group) are parallel rays too scattered for a
+    /// packet: looked at in scalar code before any lanes are filled.
+    #[inline]
+    fn refuses(self, rays: &[Ray]) -> bool {
+        if self.scattered == f32::INFINITY || rays.iter().any(|r| r.t_max != f32::INFINITY) {
+            return false;
+        }
+        // The origins' spread across the first ray's direction: points
+        // along one line walk the same nodes.
+        let d = rays[0].dir / rays[0].dir.length_squared();
+        let (lo, hi) = rays.iter().fold(
+            (glam::Vec3::INFINITY, glam::Vec3::NEG_INFINITY),
+            |(lo, hi), r| {
+                let across = r.origin - rays[0].dir * r.origin.dot(d);
+                (lo.min(across), hi.max(across))
+            },
+        );
+        (hi - lo).max_element() > self.scattered
+    }
+}
+
 #[cfg(target_arch = "x86_64")]
 pub(super) struct Closest;
 
@@ -511,15 +550,15 @@ impl NativeBvh {
 
     /// A batch query through the packet kernels this tree may run; `None`
     /// when it may not (no AVX2, watertight triangles, no triangles). The
-    /// rays that form no packet go as streams ([`Query::rest`]) where
-    /// `streams` says, else alone.
+    /// rays that form no packet, or whose group `plan` refuses one, go as
+    /// streams ([`Query::rest`]) where it says, else alone.
     #[cfg(target_arch = "x86_64")]
     pub(super) fn batch<Q: Query>(
         &self,
         rays: &[Ray],
         out: &mut [Q::Answer],
         counters: &mut TraceCounters,
-        streams: bool,
+        plan: Plan,
     ) -> Option<()> {
         let TriangleStore::Blocks(blocks) = &self.triangle_store else {
             return None;
@@ -568,11 +607,12 @@ impl NativeBvh {
             // their CPU features; the triangle tree is not empty (checked
             // above).
             formed = (formed || packet::packet_can_form(group_rays, min_packet(lanes)))
+                && !plan.refuses(group_rays)
                 && unsafe { group(self, blocks, group_rays, &mut out[start..end], counters) };
             if formed {
                 continue;
             }
-            if !streams {
+            if !plan.streams {
                 // No packet can form: the rays go alone, as single-ray
                 // queries do, outside the lanes' code (traced from inside
                 // it, incoherent batches ran at 0.93x single rays).

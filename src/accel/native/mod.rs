@@ -119,6 +119,15 @@ pub const fn min_packet(lanes: usize) -> u32 {
     (lanes as u32 * 3).div_ceil(4)
 }
 
+/// A group of an occlusion batch whose rays all run to infinity forms no
+/// packet when their origins spread, across the rays, over more than the
+/// tree's extent over this ([`batch::Plan`]). On maxplanck's directional
+/// light (AVX2, Zen 4), the shadow rays of a 160x120 frame's camera hits
+/// in wave order went 0.64x single rays as packets, 1.09x refused, and
+/// the light rays of a 1150x870 frame's hits kept their packets (2.15x
+/// single rays; 1/32 refused some of them: 1.96x); 1/8 measured as 1/16.
+pub const SCATTERED_FRACTION: f32 = 16.0;
+
 /// A batch query asks for the rays of the group this many groups ahead
 /// before tracing each group (CBbunny camera packets 1.01x, maxplanck
 /// 1.03x, 8 and 6 alternating pairs).
@@ -360,10 +369,12 @@ impl Accel for NativeBvh {
         // coherent ones alone (streams of the camera rays that form no
         // packet cost maxplanck's frame 0.8%). docs/experiments.md, stop 47.
         #[cfg(target_arch = "x86_64")]
-        if self
-            .batch::<batch::Closest>(rays, out, counters, coherence == Coherence::Incoherent)
-            .is_some()
-        {
+        let plan = batch::Plan {
+            streams: coherence == Coherence::Incoherent,
+            scattered: f32::INFINITY,
+        };
+        #[cfg(target_arch = "x86_64")]
+        if self.batch::<batch::Closest>(rays, out, counters, plan).is_some() {
             return;
         }
         for (ray, answer) in rays.iter().zip(out.iter_mut()) {
@@ -371,14 +382,21 @@ impl Accel for NativeBvh {
         }
     }
 
-    /// As [`Self::closest_hits`].
+    /// As [`Self::closest_hits`], every group that forms no packet as
+    /// streams; parallel rays to infinity from scattered points form none
+    /// ([`SCATTERED_FRACTION`]).
     fn occluded_all(&self, rays: &[Ray], out: &mut [bool], counters: &mut TraceCounters) {
         debug_assert_eq!(rays.len(), out.len());
         #[cfg(target_arch = "x86_64")]
-        if self
-            .batch::<batch::Occluded>(rays, out, counters, true)
-            .is_some()
-        {
+        let plan = batch::Plan {
+            streams: true,
+            scattered: {
+                let [lo, hi] = self.triangles.bounds();
+                (hi - lo).max_element() / SCATTERED_FRACTION
+            },
+        };
+        #[cfg(target_arch = "x86_64")]
+        if self.batch::<batch::Occluded>(rays, out, counters, plan).is_some() {
             return;
         }
         for (ray, answer) in rays.iter().zip(out.iter_mut()) {

@@ -48,3 +48,69 @@ fn occlusion_streams_answer_as_single_rays() {
         );
     }
 }
+
+/// Occlusion rays to infinity that share a direction (a directional
+/// light's) from points scattered over the scene form no packets, and go
+/// as streams (the node tests of single rays); leaving points side by side
+/// or along one line (spread along the rays, not across), or reaching a
+/// finite distance, they form packets (far fewer node tests counted: one
+/// per packet's node). Same answers throughout.
+#[test]
+fn scattered_parallel_shadow_rays_form_no_packets() {
+    if Avx2::detect().is_none() {
+        return;
+    }
+    let scene = CORNELL
+        .load(NormalMode::Smooth)
+        .expect("the default scene loads");
+    let bvh = NativeBvh::build(&scene, &NativeOptions::DEFAULT).expect("native builds");
+    let toward = Vec3::new(0.3, 0.9, 0.2).normalize();
+    let parallel = |origin: Vec3| Ray {
+        origin,
+        dir: toward,
+        t_min: 1e-4,
+        t_max: f32::INFINITY,
+    };
+    let scattered: Vec<Ray> = occlusion_rays(&scene, 2_048, 9)
+        .iter()
+        .map(|r| parallel(r.origin))
+        .collect();
+    let size = scene.bounds().extent().max_element();
+    let (start, step) = (scattered[0].origin, size * 1e-4);
+    let side_by_side: Vec<Ray> = (0..2_048)
+        .map(|i| parallel(start + Vec3::new((i % 16) as f32, (i / 16 % 16) as f32, 0.0) * step))
+        .collect();
+    let along: Vec<Ray> = (0..2_048)
+        .map(|i| parallel(start + toward * (size * 0.2 * (i % 16) as f32 / 16.0)))
+        .collect();
+    let reaching: Vec<Ray> = scattered
+        .iter()
+        .map(|r| Ray {
+            t_max: 2.0 * size,
+            ..*r
+        })
+        .collect();
+    for (name, rays, packets) in [
+        ("scattered", &scattered, false),
+        ("side by side", &side_by_side, true),
+        ("along one line", &along, true),
+        ("scattered, reaching a finite distance", &reaching, true),
+    ] {
+        let mut alone = TraceCounters::default();
+        let single: Vec<bool> = rays.iter().map(|r| bvh.occluded(r, &mut alone)).collect();
+        let mut batch = TraceCounters::default();
+        let mut out = vec![false; rays.len()];
+        bvh.occluded_all(rays, &mut out, &mut batch);
+        assert_eq!(out, single, "{name}: answers");
+        if packets {
+            assert!(
+                batch.box_tests * 2 < alone.box_tests,
+                "{name}: no packets ({} node tests, {} alone)",
+                batch.box_tests,
+                alone.box_tests
+            );
+        } else {
+            assert_eq!(batch.box_tests, alone.box_tests, "{name}: packets formed");
+        }
+    }
+}
