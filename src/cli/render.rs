@@ -396,8 +396,9 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
     if waves.total() > 0.0 {
         let [closest, occluded, paths] = waves.shares().map(|s| 100.0 * s);
         say!(
-            "waves: {closest:.0}% in extension-ray batches, {occluded:.0}% in shadow-ray batches, {paths:.0}% stepping paths (shading, sampling, gathering rays) of {:.2} thread-seconds",
-            waves.total()
+            "waves: {closest:.0}% in extension-ray batches, {occluded:.0}% in shadow-ray batches, {paths:.0}% stepping paths (shading, sampling, gathering rays) of {:.2} thread-seconds; at most {:.0} KiB of paths and rays a thread",
+            waves.total(),
+            waves.peak_bytes as f64 / 1024.0
         );
     }
     // The image and its sample-rate companion are written together or

@@ -388,6 +388,14 @@ fn render_row<A: Accel>(
             }
         }
     }
+    if settings.batching == Batching::Waves {
+        wave.times.peak_bytes = wave.held_bytes()
+            + wave::held(&rays)
+            + wave::held(&streams)
+            + wave::held(&values)
+            + wave::held(&luminance_sums)
+            + wave::held(&active);
+    }
     wave.times
 }
 

@@ -51,11 +51,14 @@ impl Batching {
 /// choosing its light samples and next direction) and gathers the moving
 /// paths' rays. Each phase is timed once per bounce of a wave, a few clock
 /// reads per thousand paths. Zero unless the renderer ran `--waves`.
+/// With them, the memory a wave held: the most bytes any one row's lists
+/// reached (a thread renders one row at a time), the most over the rows.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct WaveTimes {
     pub closest: f64,
     pub occluded: f64,
     pub paths: f64,
+    pub peak_bytes: usize,
 }
 
 impl WaveTimes {
@@ -79,6 +82,7 @@ impl std::ops::AddAssign for WaveTimes {
         self.closest += o.closest;
         self.occluded += o.occluded;
         self.paths += o.paths;
+        self.peak_bytes = self.peak_bytes.max(o.peak_bytes);
     }
 }
 
@@ -102,6 +106,19 @@ pub struct Wave<'s> {
 }
 
 impl<'s> Wave<'s> {
+    /// The bytes the wave's lists hold (their capacity: what they grew to
+    /// over the waves so far).
+    pub fn held_bytes(&self) -> usize {
+        held(&self.states)
+            + self.tape.held_bytes()
+            + held(&self.blocked)
+            + held(&self.hits)
+            + held(&self.moving)
+            + held(&self.paused)
+            + held(&self.rays)
+            + held(&self.points)
+    }
+
     /// The radiance along each of `camera_rays`, path `k` drawing from
     /// `streams[k]`, into `values` (cleared first).
     pub fn radiance<A: Accel>(
@@ -242,6 +259,11 @@ impl<'s> Wave<'s> {
             .accel()
             .occluded_all(self.tape.rays(), &mut self.blocked, counters);
     }
+}
+
+/// The bytes `list`'s allocation holds.
+pub fn held<T>(list: &Vec<T>) -> usize {
+    list.capacity() * std::mem::size_of::<T>()
 }
 
 #[cfg(test)]

@@ -247,10 +247,19 @@ fn frames_table(r: &SceneResult) -> Table {
             "1 thread: camera rays batched, s",
         ),
         ("one_thread_waves_seconds", "1 thread: waves, s"),
+        (
+            "one_thread_waves_ksamples_per_second",
+            "1 thread: waves, 10^3 samples/s",
+        ),
         ("waves_extension_percent", "waves: extension-ray batches, %"),
         ("waves_shadow_percent", "waves: shadow-ray batches, %"),
         ("waves_paths_percent", "waves: stepping paths, %"),
+        ("waves_kib_per_thread", "waves: KiB a thread at most"),
     ]);
+    // Every mode gives the same image (the same error), so samples per
+    // second compare the modes at equal error.
+    let (w, h, spp) = r.frame;
+    let samples = f64::from(w) * f64::from(h) * f64::from(spp);
     for (i, c) in r.compared.iter().enumerate() {
         let (lo, median, hi) = r.wave_frame[i];
         let shares = r.wave_times[i].shares();
@@ -269,9 +278,14 @@ fn frames_table(r: &SceneResult) -> Table {
             Cell::Text(format!("{lo:.3}–{hi:.3}")),
             Cell::Measured(r.frame_seconds_one[i], 3),
             Cell::Measured(r.frame_seconds_waves_one[i], 3),
+            Cell::Number(
+                samples / r.frame_seconds_waves_one[i].median.max(1e-9) / 1e3,
+                0,
+            ),
             percent(shares[0]),
             percent(shares[1]),
             percent(shares[2]),
+            Cell::Number(r.wave_times[i].peak_bytes as f64 / 1024.0, 0),
         ]);
     }
     table
@@ -295,7 +309,7 @@ pub fn section(results: &[SceneResult]) -> (String, Value) {
         let (w, h, spp) = r.frame;
         let frames = frames_table(r);
         md += &format!(
-            "### {} ({}: {} primitives)\n\n{}\n{}\nCamera and light rays in every batched mode, 1 thread (Mrays/s by CPU time; each Embree called from C):\n\n{}\nThe same on {} threads, through each backend's batch query ({}):\n\n{}\nTime per frame ({w}x{h}, {spp} spp, 3 bounces, light sampling, {} threads) in the renderer's three modes, the same image in each: camera rays in batches (the default), every ray alone (`--no-packets`), every bounce's rays of a wave of paths in batches (`--waves`); waves / default is the median of the per-round ratios with its 95% interval; the default and the waves again on one thread; and the last columns say where the waves' thread time went (both thread counts):\n\n{}\n",
+            "### {} ({}: {} primitives)\n\n{}\n{}\nCamera and light rays in every batched mode, 1 thread (Mrays/s by CPU time; each Embree called from C):\n\n{}\nThe same on {} threads, through each backend's batch query ({}):\n\n{}\nTime per frame ({w}x{h}, {spp} spp, 3 bounces, light sampling, {} threads) in the renderer's three modes, the same image in each: camera rays in batches (the default), every ray alone (`--no-packets`), every bounce's rays of a wave of paths in batches (`--waves`); waves / default is the median of the per-round ratios with its 95% interval; the default and the waves again on one thread, the waves also as samples per second (every mode makes the same image, so this compares them at equal error); and the last columns say where the waves' thread time went (both thread counts) and the most memory one thread's wave held (its paths, rays, hits and shadow tape):\n\n{}\n",
             r.scene,
             r.size,
             r.primitives,

@@ -439,6 +439,41 @@ fn waves_say_where_their_time_went() {
     }
 }
 
+/// A wave renderer says the most memory one thread's wave held (its
+/// paths, rays, hits and shadow tape, docs/design.md: about half a MB for
+/// waves of up to 1024 paths): some, within 1 MiB, and the same on one
+/// thread as on three (each row's lists depend on its own paths only).
+#[test]
+fn waves_say_how_much_memory_a_thread_held() {
+    let scene = crate::common::default_scene();
+    let native = BackendConfig::NATIVE.build(&scene).expect("native builds");
+    let settings = |threads| RenderSettings {
+        width: 160,
+        height: 12,
+        samples: 16,
+        seed: 3,
+        threads,
+        batching: Batching::Waves,
+        shading: Shading::Path(PathSettings {
+            light_samples: 1,
+            max_bounces: 5,
+            ..PathSettings::default()
+        }),
+        ..RenderSettings::default()
+    };
+    let one = render(&scene, &native, &settings(1), &Silent)
+        .wave_times
+        .peak_bytes;
+    let three = render(&scene, &native, &settings(3), &Silent)
+        .wave_times
+        .peak_bytes;
+    // 960 paths a wave (six samples of the row's 160 pixels), each its
+    // state and at least a camera ray.
+    assert!(one > 960 * 32, "{one} bytes");
+    assert!(one <= 1 << 20, "{one} bytes a thread");
+    assert_eq!(one, three, "one thread against three");
+}
+
 /// Every SIMD intrinsic is inlined into the `#[target_feature]` kernel that
 /// calls it. One reached through code without the features (a closure run
 /// by `array::map`, issue 49) stays a function call that passes vectors

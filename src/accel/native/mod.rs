@@ -374,7 +374,10 @@ impl Accel for NativeBvh {
             scattered: f32::INFINITY,
         };
         #[cfg(target_arch = "x86_64")]
-        if self.batch::<batch::Closest>(rays, out, counters, plan).is_some() {
+        if self
+            .batch::<batch::Closest>(rays, out, counters, plan)
+            .is_some()
+        {
             return;
         }
         for (ray, answer) in rays.iter().zip(out.iter_mut()) {
@@ -396,7 +399,10 @@ impl Accel for NativeBvh {
             },
         };
         #[cfg(target_arch = "x86_64")]
-        if self.batch::<batch::Occluded>(rays, out, counters, plan).is_some() {
+        if self
+            .batch::<batch::Occluded>(rays, out, counters, plan)
+            .is_some()
+        {
             return;
         }
         for (ray, answer) in rays.iter().zip(out.iter_mut()) {

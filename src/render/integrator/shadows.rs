@@ -111,6 +111,11 @@ impl Span {
 }
 
 impl ShadowTape {
+    /// The bytes the tape's lists hold.
+    pub fn held_bytes(&self) -> usize {
+        crate::render::wave::held(&self.terms) + crate::render::wave::held(&self.rays)
+    }
+
     /// How many terms and rays the tape holds: where the next vertex's
     /// part starts. A tape holds one wave's paths, far fewer than 2^32
     /// terms.
