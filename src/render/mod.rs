@@ -311,7 +311,8 @@ pub const CAMERA_WAVE_PATHS: usize = 4096;
 /// number each took into `counts`. The paths of the row's unfinished
 /// pixels, for as many consecutive sample indices as fit in a wave
 /// ([`WAVE_PATHS`] with `--waves`, else [`CAMERA_WAVE_PATHS`]), are traced
-/// as one wave ([`Wave`], as `settings.batching` says). Each pixel takes its samples in order from
+/// as one wave ([`Wave`], as `settings.batching` says), a pixel's samples
+/// side by side. Each pixel takes its samples in order from
 /// its own random streams, its sums add them in sample order, and each
 /// path takes the same steps however it is batched, so the sums do not
 /// depend on the batching. Returns where the row's waves spent their time.
@@ -349,9 +350,13 @@ fn render_row<A: Accel>(
             let wave_end = i.saturating_add(per_wave).min(end);
             rays.clear();
             streams.clear();
-            for sample in i..wave_end {
-                for &p in &active {
-                    let x = columns.start + p as u32;
+            // Pixel by pixel, each pixel's samples side by side: the
+            // paths next to each other in a wave start in one pixel, so
+            // that their camera rays and the shadow rays of their first
+            // hits form tight packets.
+            for &p in &active {
+                let x = columns.start + p as u32;
+                for sample in i..wave_end {
                     let (ray, rng) = camera_sample(camera, settings, x, y, sample);
                     rays.push(ray);
                     streams.push(rng);
@@ -365,8 +370,9 @@ fn render_row<A: Accel>(
                 counters,
                 &mut values,
             );
-            for sample_values in values.chunks(active.len()) {
-                for (&value, &p) in sample_values.iter().zip(&active) {
+            let per_pixel = (wave_end - i) as usize;
+            for (pixel_values, &p) in values.chunks(per_pixel).zip(&active) {
+                for &value in pixel_values {
                     sums[p] += value.as_dvec3();
                     let l = luminance(value) as f64;
                     luminance_sums[p].0 += l;
