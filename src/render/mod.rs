@@ -294,12 +294,18 @@ fn converged(a: &Adaptive, n: u32, s1: f64, s2: f64) -> bool {
 }
 
 /// Paths a wave of `--waves` holds at most: a row's pixels times as many
-/// of their samples as fit, and at least one sample of the row (a row
-/// wider than this is one wave per sample). A paused path is a few hundred
-/// bytes, so a wave's state stays within half a MB per thread, in the
-/// core's L2 cache; 1024 measured faster than 256, 512, 2048, 4096 and
-/// 16384 (docs/experiments.md, "Wave size, again").
+/// of their samples as fit, or (a row wider than this over
+/// [`SIDE_BY_SIDE`]) an even piece of the row times that many samples. A
+/// paused path is a few hundred bytes, so a wave's state stays within
+/// half a MB per thread, in the core's L2 cache, however wide the row;
+/// 1024 measured faster than 256, 512, 2048, 4096 and 16384
+/// (docs/experiments.md, "Wave size, again").
 pub const WAVE_PATHS: usize = 1024;
+
+/// Samples of each pixel a wave holds side by side at least, where the
+/// batch has them: a row wider than a wave's paths over this goes in
+/// pieces.
+pub const SIDE_BY_SIDE: u32 = 4;
 
 /// Paths a wave holds in the other modes, where only its camera rays are
 /// traced together: Embree's camera packets measured 4% faster in waves
@@ -347,39 +353,43 @@ fn render_row<A: Accel>(
         let per_wave = (wave_paths / active.len()).max(1) as u32;
         let mut i = done;
         while i < end {
-            let wave_end = i.saturating_add(per_wave).min(end);
-            rays.clear();
-            streams.clear();
-            // Pixel by pixel, each pixel's samples side by side: the
-            // paths next to each other in a wave start in one pixel, so
-            // that their camera rays and the shadow rays of their first
-            // hits form tight packets.
-            for &p in &active {
-                let x = columns.start + p as u32;
-                for sample in i..wave_end {
-                    let (ray, rng) = camera_sample(camera, settings, x, y, sample);
-                    rays.push(ray);
-                    streams.push(rng);
+            // A wave holds each of its pixels' next samples side by side,
+            // at least SIDE_BY_SIDE of them where the batch has them: a
+            // row too wide for that goes in even pieces of fewer pixels.
+            let block = per_wave.max(SIDE_BY_SIDE).min(end - i);
+            let pieces = active.len().div_ceil((wave_paths / block as usize).max(1));
+            for pixels in active.chunks(active.len().div_ceil(pieces)) {
+                rays.clear();
+                streams.clear();
+                // Pixel by pixel: the paths next to each other in a wave
+                // start in one pixel, so that their camera rays and the
+                // shadow rays of their first hits form tight packets.
+                for &p in pixels {
+                    let x = columns.start + p as u32;
+                    for sample in i..i + block {
+                        let (ray, rng) = camera_sample(camera, settings, x, y, sample);
+                        rays.push(ray);
+                        streams.push(rng);
+                    }
+                }
+                wave.radiance(
+                    integrator,
+                    settings.batching,
+                    &rays,
+                    &mut streams,
+                    counters,
+                    &mut values,
+                );
+                for (pixel_values, &p) in values.chunks(block as usize).zip(pixels) {
+                    for &value in pixel_values {
+                        sums[p] += value.as_dvec3();
+                        let l = luminance(value) as f64;
+                        luminance_sums[p].0 += l;
+                        luminance_sums[p].1 += l * l;
+                    }
                 }
             }
-            wave.radiance(
-                integrator,
-                settings.batching,
-                &rays,
-                &mut streams,
-                counters,
-                &mut values,
-            );
-            let per_pixel = (wave_end - i) as usize;
-            for (pixel_values, &p) in values.chunks(per_pixel).zip(&active) {
-                for &value in pixel_values {
-                    sums[p] += value.as_dvec3();
-                    let l = luminance(value) as f64;
-                    luminance_sums[p].0 += l;
-                    luminance_sums[p].1 += l * l;
-                }
-            }
-            i = wave_end;
+            i += block;
         }
         done = end;
         for &p in &active {

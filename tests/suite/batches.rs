@@ -441,8 +441,9 @@ fn waves_say_where_their_time_went() {
 
 /// A wave renderer says the most memory one thread's wave held (its
 /// paths, rays, hits and shadow tape, docs/design.md: about half a MB for
-/// waves of up to 1024 paths): some, within 1 MiB, and the same on one
-/// thread as on three (each row's lists depend on its own paths only).
+/// waves of up to 1024 paths): some, within 1 MiB however wide the row,
+/// and the same on one thread as on three (each row's lists depend on its
+/// own paths only).
 #[test]
 fn waves_say_how_much_memory_a_thread_held() {
     let scene = crate::common::default_scene();
@@ -472,6 +473,20 @@ fn waves_say_how_much_memory_a_thread_held() {
     assert!(one > 960 * 32, "{one} bytes");
     assert!(one <= 1 << 20, "{one} bytes a thread");
     assert_eq!(one, three, "one thread against three");
+    // A row three times as wide as a wave goes in pieces: the same bound.
+    let wide = RenderSettings {
+        width: 3000,
+        height: 2,
+        samples: 8,
+        ..settings(1)
+    };
+    let wide = render(&scene, &native, &wide, &Silent)
+        .wave_times
+        .peak_bytes;
+    assert!(
+        wide <= 1 << 20,
+        "{wide} bytes a thread for a 3000-pixel row"
+    );
 }
 
 /// Every SIMD intrinsic is inlined into the `#[target_feature]` kernel that
