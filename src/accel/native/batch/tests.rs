@@ -7,18 +7,25 @@ use crate::scene::builtin::CORNELL;
 use crate::scene::NormalMode;
 use glam::Vec3;
 
+/// The default scene and its tree with the default options, where the CPU
+/// runs the stream and packet kernels (AVX2); else nothing to test.
+fn cornell_where_streams_run() -> Option<(crate::scene::Scene, NativeBvh)> {
+    Avx2::detect()?;
+    let scene = CORNELL
+        .load(NormalMode::Smooth)
+        .expect("the default scene loads");
+    let bvh = NativeBvh::build(&scene, &NativeOptions::DEFAULT).expect("native builds");
+    Some((scene, bvh))
+}
+
 /// Occlusion streams answer as single rays do, ray for ray: full
 /// streams of random rays, short ones (walked alone from the root), the
 /// renderer's light rays, and rays that cannot be traced at all.
 #[test]
 fn occlusion_streams_answer_as_single_rays() {
-    if Avx2::detect().is_none() {
+    let Some((scene, bvh)) = cornell_where_streams_run() else {
         return;
-    }
-    let scene = CORNELL
-        .load(NormalMode::Smooth)
-        .expect("the default scene loads");
-    let bvh = NativeBvh::build(&scene, &NativeOptions::DEFAULT).expect("native builds");
+    };
     let TriangleStore::Blocks(blocks) = &bvh.triangle_store else {
         panic!("the default options store triangle blocks");
     };
@@ -57,13 +64,9 @@ fn occlusion_streams_answer_as_single_rays() {
 /// per packet's node). Same answers throughout.
 #[test]
 fn scattered_parallel_shadow_rays_form_no_packets() {
-    if Avx2::detect().is_none() {
+    let Some((scene, bvh)) = cornell_where_streams_run() else {
         return;
-    }
-    let scene = CORNELL
-        .load(NormalMode::Smooth)
-        .expect("the default scene loads");
-    let bvh = NativeBvh::build(&scene, &NativeOptions::DEFAULT).expect("native builds");
+    };
     let toward = Vec3::new(0.3, 0.9, 0.2).normalize();
     let parallel = |origin: Vec3| Ray {
         origin,
