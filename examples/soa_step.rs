@@ -40,48 +40,13 @@ use hybrid::bench::file;
 use hybrid::geom::ray::SHADOW_END;
 use hybrid::geom::sampling::Rng;
 use hybrid::geom::{gamma, Hit, Ray};
+use hybrid::render::f8::F8;
 use hybrid::render::integrator::{
     DirectEstimator, Integrator, PathSettings, PathState, Shading, ShadowTape,
 };
 use hybrid::render::lanes::surface_points;
 use hybrid::scene::{collada, Light, Material, NormalMode, Scene, SurfacePoint, TEST_ULPS};
-
-/// `[e(0), e(1), e(2)]` for an expression `e` of `k`, written out: a
-/// closure there may stay a call, which the passes cannot afford.
-macro_rules! c3 {
-    (|$k:ident| $e:expr) => {
-        [
-            {
-                let $k = 0;
-                $e
-            },
-            {
-                let $k = 1;
-                $e
-            },
-            {
-                let $k = 2;
-                $e
-            },
-        ]
-    };
-}
-
-/// `a.map(f)` for a one-argument closure or a function, written out as
-/// [`c3`] is.
-macro_rules! m3 {
-    ($a:expr, |$x:ident| $e:expr) => {{
-        let a = $a;
-        c3!(|k| {
-            let $x = a[k];
-            $e
-        })
-    }};
-    ($a:expr, $f:path) => {{
-        let a = $a;
-        c3!(|k| $f(a[k]))
-    }};
-}
+use hybrid::{each3, map3};
 
 /// Paths a wave holds (the renderer's `WAVE_PATHS`).
 const WAVE: usize = 1024;
@@ -461,7 +426,7 @@ fn next_u32(state: &mut [u64], inc: &[u64], out: &mut [u32]) {
 /// Three coordinates of eight paths from `lists` at path `i`.
 #[inline(always)]
 fn v3(lists: &[Vec<f32>; 3], i: usize) -> [F8; 3] {
-    c3!(|a| F8::load(&lists[a][i..]))
+    each3!(|a| F8::load(&lists[a][i..]))
 }
 
 #[inline(always)]
@@ -507,190 +472,6 @@ fn sin_cos_turn(v: F8) -> (F8, F8) {
     let (odd, high) = q.quadrant();
     let (s, co) = (F8::select(odd, co, s), F8::select(odd, -s, co));
     (F8::select(high, -s, s), F8::select(high, -co, co))
-}
-
-/// Eight floats side by side. Every operation is a loop over the eight,
-/// inlined into the passes, which are compiled for AVX2: there LLVM makes
-/// each loop one AVX2 instruction. Safe code throughout; the same bits as
-/// eight scalar operations.
-#[derive(Clone, Copy)]
-#[repr(align(32))]
-struct F8([f32; 8]);
-
-// Lane loops index their arrays: the form LLVM turns into one instruction
-// (iterator chains over two arrays it did not always).
-#[allow(clippy::needless_range_loop)]
-impl F8 {
-    #[inline(always)]
-    fn each(self, f: impl Fn(f32) -> f32) -> F8 {
-        let mut out = [0.0; 8];
-        for l in 0..8 {
-            out[l] = f(self.0[l]);
-        }
-        F8(out)
-    }
-    #[inline(always)]
-    fn zip(self, o: F8, f: impl Fn(f32, f32) -> f32) -> F8 {
-        let mut out = [0.0; 8];
-        for l in 0..8 {
-            out[l] = f(self.0[l], o.0[l]);
-        }
-        F8(out)
-    }
-    #[inline(always)]
-    fn splat(x: f32) -> F8 {
-        F8([x; 8])
-    }
-    #[inline(always)]
-    fn load(a: &[f32]) -> F8 {
-        F8(a[..8].try_into().expect("eight floats"))
-    }
-    #[inline(always)]
-    fn store(self, a: &mut [f32]) {
-        a[..8].copy_from_slice(&self.0);
-    }
-    /// Uniform in [0, 1) from eight generator outputs (`Rng::next_f32`).
-    #[inline(always)]
-    fn unit(a: &[u32]) -> F8 {
-        let mut out = [0.0; 8];
-        for l in 0..8 {
-            out[l] = (a[l] >> 8) as f32 * (1.0 / (1u32 << 24) as f32);
-        }
-        F8(out)
-    }
-    #[inline(always)]
-    fn sqrt(self) -> F8 {
-        self.each(f32::sqrt)
-    }
-    #[inline(always)]
-    fn abs(self) -> F8 {
-        self.each(f32::abs)
-    }
-    #[inline(always)]
-    fn floor(self) -> F8 {
-        self.each(f32::floor)
-    }
-    #[inline(always)]
-    fn min(self, o: F8) -> F8 {
-        self.zip(o, |a, b| if b < a { b } else { a })
-    }
-    #[inline(always)]
-    fn max(self, o: F8) -> F8 {
-        self.zip(o, |a, b| if b > a { b } else { a })
-    }
-    #[inline(always)]
-    fn copysign(self, sign: F8) -> F8 {
-        self.zip(sign, f32::copysign)
-    }
-    // Masks: all bits set where true (as a comparison instruction leaves).
-    #[inline(always)]
-    fn mask(self, o: F8, f: impl Fn(f32, f32) -> bool) -> F8 {
-        self.zip(o, |a, b| f32::from_bits(if f(a, b) { u32::MAX } else { 0 }))
-    }
-    #[inline(always)]
-    fn lt(self, o: F8) -> F8 {
-        self.mask(o, |a, b| a < b)
-    }
-    #[inline(always)]
-    fn gt(self, o: F8) -> F8 {
-        self.mask(o, |a, b| a > b)
-    }
-    #[inline(always)]
-    fn ne(self, o: F8) -> F8 {
-        self.mask(o, |a, b| a != b)
-    }
-    #[inline(always)]
-    fn bits(self, o: F8, f: impl Fn(u32, u32) -> u32) -> F8 {
-        self.zip(o, |a, b| f32::from_bits(f(a.to_bits(), b.to_bits())))
-    }
-    #[inline(always)]
-    fn and(self, o: F8) -> F8 {
-        self.bits(o, |a, b| a & b)
-    }
-    #[inline(always)]
-    fn or(self, o: F8) -> F8 {
-        self.bits(o, |a, b| a | b)
-    }
-    #[inline(always)]
-    fn and_not(self, o: F8) -> F8 {
-        self.bits(o, |a, b| a & !b)
-    }
-    /// `a` where `mask`, else `b`.
-    #[inline(always)]
-    fn select(mask: F8, a: F8, b: F8) -> F8 {
-        let mut out = [0.0; 8];
-        for l in 0..8 {
-            out[l] = if mask.0[l].to_bits() != 0 {
-                a.0[l]
-            } else {
-                b.0[l]
-            };
-        }
-        F8(out)
-    }
-    /// The quadrant of a whole number of quarter turns: odd, and in the
-    /// upper half turn.
-    #[inline(always)]
-    fn quadrant(self) -> (F8, F8) {
-        let bit =
-            |b: i32| self.each(|q| f32::from_bits(if (q as i32) & b != 0 { u32::MAX } else { 0 }));
-        (bit(1), bit(2))
-    }
-    /// `x.next_up()` where `offset > 0`, `next_down` where below, `x`
-    /// where zero (`Ray::spawn`'s last step): the standard library's
-    /// steps on the bits, without its branches.
-    #[inline(always)]
-    fn away(self, offset: F8) -> F8 {
-        let mut out = [0.0; 8];
-        for l in 0..8 {
-            let (x, o) = (self.0[l], offset.0[l]);
-            // Conditions as all-ones masks, so that the loop has no branch.
-            let all = |c: bool| 0u32.wrapping_sub(c as u32);
-            let pick = |m: u32, a: u32, b: u32| (a & m) | (b & !m);
-            let bits = x.to_bits();
-            let abs = bits & 0x7fff_ffff;
-            let negative = all(bits != abs);
-            let (up, down) = (all(o > 0.0), all(o < 0.0));
-            // The magnitude grows going up from a positive number or down
-            // from a negative one, and shrinks the other way.
-            let grow = (up & !negative) | (down & negative);
-            let shrink = (up & negative) | (down & !negative);
-            let stepped = bits.wrapping_add(grow & 1).wrapping_sub(shrink & 1);
-            let zero_to = (down & 0x8000_0000) | 1;
-            let keep = all(abs > 0x7f80_0000) | (all(abs == 0x7f80_0000) & grow);
-            let next = pick(
-                all(abs == 0) & (up | down),
-                zero_to,
-                pick(keep, bits, stepped),
-            );
-            out[l] = f32::from_bits(next);
-        }
-        F8(out)
-    }
-}
-
-macro_rules! op {
-    ($trait:ident, $f:ident, $op:tt) => {
-        impl std::ops::$trait for F8 {
-            type Output = F8;
-            #[inline(always)]
-            fn $f(self, o: F8) -> F8 {
-                self.zip(o, |a, b| a $op b)
-            }
-        }
-    };
-}
-op!(Add, add, +);
-op!(Sub, sub, -);
-op!(Mul, mul, *);
-op!(Div, div, /);
-
-impl std::ops::Neg for F8 {
-    type Output = F8;
-    #[inline(always)]
-    fn neg(self) -> F8 {
-        self.each(|x| -x)
-    }
 }
 
 impl Arrays {
@@ -807,25 +588,25 @@ impl Arrays {
         let g9 = F8::splat(gamma(9));
         let (two, third, zero) = (F8::splat(2.0), F8::splat(3.0), F8::splat(0.0));
         for i in (0..n).step_by(8) {
-            let w = c3!(|k| F8::load(&self.w[k][i..]));
-            let c = c3!(|k| v3(&self.corner[k], i));
-            let nm = c3!(|k| v3(&self.normal[k], i));
+            let w = each3!(|k| F8::load(&self.w[k][i..]));
+            let c = each3!(|k| v3(&self.corner[k], i));
+            let nm = each3!(|k| v3(&self.normal[k], i));
             let d = |x: usize, y: usize, a: usize| (c[x][a] - c[y][a]).abs();
-            let s = c3!(|a| d(1, 0, a).max(d(2, 0, a)).max(d(2, 1, a)));
+            let s = each3!(|a| d(1, 0, a).max(d(2, 0, a)).max(d(2, 1, a)));
             let margin = margin_ulps * s[0].max(s[1]).max(s[2]);
-            let on = c3!(|a| c[0][a] * w[0] + c[1][a] * w[1] + c[2][a] * w[2]);
-            let inward = c3!(|a| (c[0][a] + c[1][a] + c[2][a]) / third - on[a]);
+            let on = each3!(|a| c[0][a] * w[0] + c[1][a] * w[1] + c[2][a] * w[2]);
+            let inward = each3!(|a| (c[0][a] + c[1][a] + c[2][a]) / third - on[a]);
             let reach = dot(inward, inward).sqrt();
             let steps = reach.gt(two * margin);
             let step = two * margin / reach;
-            let e1 = c3!(|a| c[1][a] - c[0][a]);
-            let e2 = c3!(|a| c[2][a] - c[0][a]);
+            let e1 = each3!(|a| c[1][a] - c[0][a]);
+            let e2 = each3!(|a| c[2][a] - c[0][a]);
             let x = cross(e1, e2);
             let len = dot(x, x).sqrt();
-            let ng = m3!(x, |v| v / len);
-            let sm = c3!(|a| nm[0][a] * w[0] + nm[1][a] * w[1] + nm[2][a] * w[2]);
+            let ng = map3!(x, |v| v / len);
+            let sm = each3!(|a| nm[0][a] * w[0] + nm[1][a] * w[1] + nm[2][a] * w[2]);
             let recip = F8::splat(1.0) / dot(sm, sm).sqrt();
-            let unit = m3!(sm, |x| x * recip);
+            let unit = map3!(sm, |x| x * recip);
             let outward = dot(unit, ng).lt(zero);
             for a in 0..3 {
                 F8::select(steps, on[a] + inward[a] * step, on[a]).store(&mut self.p[a][i..]);
@@ -848,11 +629,11 @@ impl Arrays {
         self.lifted.resize(n, 0.0);
         let (zero, one) = (F8::splat(0.0), F8::splat(1.0));
         for i in (0..n).step_by(8) {
-            let wo = m3!(v3(&self.dir, i), |x| -x);
+            let wo = map3!(v3(&self.dir, i), |x| -x);
             let (ng0, ns0) = (v3(&self.ng, i), v3(&self.ns, i));
             let back = F8::select(dot(wo, ng0).lt(zero), -one, one);
-            let ng = m3!(ng0, |x| x * back);
-            let ns = m3!(ns0, |x| x * back);
+            let ng = map3!(ng0, |x| x * back);
+            let ns = map3!(ns0, |x| x * back);
             // (A diffuse surface keeps the smooth normal's side: no turn to
             // the view, `Lobe::turns_to_view`.)
             let sign = one.copysign(ns[2]);
@@ -860,16 +641,16 @@ impl Arrays {
             let fb = ns[0] * ns[1] * fa;
             let s = [one + sign * ns[0] * ns[0] * fa, sign * fb, -(sign * ns[0])];
             let t = [fb, sign + ns[1] * ns[1] * fa, -ns[1]];
-            let w = c3!(|k| F8::load(&self.w[k][i..]));
-            let nk = c3!(|k| v3(&self.normal[k], i));
-            let interp = c3!(|a| nk[0][a] * w[0] + nk[1][a] * w[1] + nk[2][a] * w[2]);
+            let w = each3!(|k| F8::load(&self.w[k][i..]));
+            let nk = each3!(|k| v3(&self.normal[k], i));
+            let interp = each3!(|a| nk[0][a] * w[0] + nk[1][a] * w[1] + nk[2][a] * w[2]);
             let flip = F8::select(dot(interp, ng).lt(zero), -one, one);
             let p = v3(&self.p, i);
             let mut lift = [zero; 3];
             for k in 0..3 {
-                let nn = m3!(nk[k], |x| x * flip);
+                let nn = map3!(nk[k], |x| x * flip);
                 let c = v3(&self.corner[k], i);
-                let below = dot(c3!(|a| p[a] - c[a]), nn).min(zero);
+                let below = dot(each3!(|a| p[a] - c[a]), nn).min(zero);
                 for a in 0..3 {
                     lift[a] = lift[a] - nn[a] * (below * w[k]);
                 }
@@ -931,12 +712,12 @@ impl Arrays {
         for i in (0..n).step_by(8) {
             let (u, v) = (F8::unit(&a[i..]), F8::unit(&b[i..]));
             let p = v3(&self.p, i);
-            let to = c3!(|k| o[k] + eu[k] * u + ev[k] * v - p[k]);
+            let to = each3!(|k| o[k] + eu[k] * u + ev[k] * v - p[k]);
             let d2 = dot(to, to);
             let distance = d2.sqrt();
             let cos_light = -dot(to, ln) / distance;
             let pdf = d2 / (cos_light * area);
-            let wi = m3!(to, |x| x / distance);
+            let wi = map3!(to, |x| x / distance);
             let ng = v3(&self.ng, i);
             let local_z = dot(wi, v3(&self.ns, i));
             let in_front = dot(wi, ng).gt(zero);
@@ -951,10 +732,10 @@ impl Arrays {
                 .and(in_front.or(lifted))
                 .and_not(emits);
             let albedo = v3(&self.albedo, i);
-            let f = m3!(albedo, |x| x * pi);
+            let f = map3!(albedo, |x| x * pi);
             let black = f[0].ne(zero).or(f[1].ne(zero)).or(f[2].ne(zero));
             let ok = ok.and(black);
-            let contribution = m3!(radiance, |x| x / pdf);
+            let contribution = map3!(radiance, |x| x / pdf);
             // The MIS weight against the BSDF's density, then the term.
             let (a2, b2) = (pdf * pdf, (local_z * pi) * (local_z * pi));
             let weight = F8::select(in_front, a2 / (a2 + b2), one);
@@ -962,17 +743,17 @@ impl Arrays {
             // From the lifted point where there is one.
             let error = v3(&self.error, i);
             let lift = v3(&self.lift, i);
-            let from = c3!(|k| F8::select(lifted, p[k] + lift[k], p[k]));
-            let from_error = c3!(|k| {
+            let from = each3!(|k| F8::select(lifted, p[k] + lift[k], p[k]));
+            let from_error = each3!(|k| {
                 F8::select(
                     lifted,
                     error[k] + (p[k].abs() + lift[k].abs()) * g1,
                     error[k],
                 )
             });
-            let reach = c3!(|k| p[k] + wi[k] * distance - from[k]);
+            let reach = each3!(|k| p[k] + wi[k] * distance - from[k]);
             let length = dot(reach, reach).sqrt();
-            let dir = c3!(|k| F8::select(lifted, reach[k] / length, wi[k]));
+            let dir = each3!(|k| F8::select(lifted, reach[k] / length, wi[k]));
             let far = F8::select(lifted, length, distance);
             let origin = spawn(from, from_error, ng, dir);
             for k in 0..3 {
@@ -1008,7 +789,7 @@ impl Arrays {
             };
             let local = [r * cos, r * sin, (one - u).max(zero).sqrt()];
             let (s, t, ns) = (v3(&self.s, i), v3(&self.t, i), v3(&self.ns, i));
-            let wi = c3!(|k| s[k] * local[0] + t[k] * local[1] + ns[k] * local[2]);
+            let wi = each3!(|k| s[k] * local[0] + t[k] * local[1] + ns[k] * local[2]);
             let ng = v3(&self.ng, i);
             let emits = F8::load(&self.emits[i..]).gt(zero);
             let ok = local[2].gt(zero).and(dot(wi, ng).gt(zero)).and_not(emits);

@@ -12,6 +12,7 @@
 
 pub mod camera;
 pub mod camera_file;
+pub mod f8;
 pub mod film;
 pub mod integrator;
 pub mod lanes;

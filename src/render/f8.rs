@@ -1,0 +1,245 @@
+//! Eight floats side by side, for passes over a wave's paths kept in
+//! lists (structure of arrays): `render::integrator`'s wave in arrays and
+//! `examples/soa_step.rs`. Each operation is a loop over the eight lanes,
+//! always inlined; inside a function compiled for AVX2 (behind the
+//! [`crate::accel::native::cpu::Avx2`] proof) LLVM makes each loop one
+//! AVX2 instruction, and elsewhere it is correct scalar code. Safe code
+//! throughout, and each lane's bits are those of the scalar operation:
+//! IEEE additions, products, quotients and square roots, comparisons as
+//! all-ones masks, selects instead of branches (docs/experiments.md, stop
+//! 51: `_mm256_*` intrinsics behind these methods stayed calls in a
+//! portable build, and branches kept a pass scalar).
+
+/// `[e(0), e(1), e(2)]` for an expression `e` of `k`, written out: a
+/// closure there may stay a call, which the passes cannot afford.
+#[macro_export]
+macro_rules! each3 {
+    (|$k:ident| $e:expr) => {
+        [
+            {
+                let $k = 0;
+                $e
+            },
+            {
+                let $k = 1;
+                $e
+            },
+            {
+                let $k = 2;
+                $e
+            },
+        ]
+    };
+}
+
+/// `a.map(f)` for a one-argument closure or a function, written out as
+/// [`each3`] is.
+#[macro_export]
+macro_rules! map3 {
+    ($a:expr, |$x:ident| $e:expr) => {{
+        let a = $a;
+        $crate::each3!(|k| {
+            let $x = a[k];
+            $e
+        })
+    }};
+    ($a:expr, $f:path) => {{
+        let a = $a;
+        $crate::each3!(|k| $f(a[k]))
+    }};
+}
+
+/// Eight floats side by side. Every operation is a loop over the eight,
+/// inlined into the passes, which are compiled for AVX2: there LLVM makes
+/// each loop one AVX2 instruction. Safe code throughout; the same bits as
+/// eight scalar operations.
+#[derive(Clone, Copy)]
+#[repr(align(32))]
+pub struct F8(pub [f32; 8]);
+
+// Lane loops index their arrays: the form LLVM turns into one instruction
+// (iterator chains over two arrays it did not always).
+#[allow(clippy::needless_range_loop)]
+impl F8 {
+    #[inline(always)]
+    pub fn each(self, f: impl Fn(f32) -> f32) -> F8 {
+        let mut out = [0.0; 8];
+        for l in 0..8 {
+            out[l] = f(self.0[l]);
+        }
+        F8(out)
+    }
+    #[inline(always)]
+    pub fn zip(self, o: F8, f: impl Fn(f32, f32) -> f32) -> F8 {
+        let mut out = [0.0; 8];
+        for l in 0..8 {
+            out[l] = f(self.0[l], o.0[l]);
+        }
+        F8(out)
+    }
+    #[inline(always)]
+    pub fn splat(x: f32) -> F8 {
+        F8([x; 8])
+    }
+    #[inline(always)]
+    pub fn load(a: &[f32]) -> F8 {
+        F8(a[..8].try_into().expect("eight floats"))
+    }
+    #[inline(always)]
+    pub fn store(self, a: &mut [f32]) {
+        a[..8].copy_from_slice(&self.0);
+    }
+    /// Uniform in [0, 1) from eight generator outputs (`Rng::next_f32`).
+    #[inline(always)]
+    pub fn unit(a: &[u32]) -> F8 {
+        let mut out = [0.0; 8];
+        for l in 0..8 {
+            out[l] = (a[l] >> 8) as f32 * (1.0 / (1u32 << 24) as f32);
+        }
+        F8(out)
+    }
+    #[inline(always)]
+    pub fn sqrt(self) -> F8 {
+        self.each(f32::sqrt)
+    }
+    #[inline(always)]
+    pub fn abs(self) -> F8 {
+        self.each(f32::abs)
+    }
+    #[inline(always)]
+    pub fn floor(self) -> F8 {
+        self.each(f32::floor)
+    }
+    /// `f32::min` lane by lane (its NaN and zero rules).
+    #[inline(always)]
+    pub fn min(self, o: F8) -> F8 {
+        self.zip(o, f32::min)
+    }
+    /// `f32::max` lane by lane.
+    #[inline(always)]
+    pub fn max(self, o: F8) -> F8 {
+        self.zip(o, f32::max)
+    }
+    #[inline(always)]
+    pub fn copysign(self, sign: F8) -> F8 {
+        self.zip(sign, f32::copysign)
+    }
+    // Masks: all bits set where true (as a comparison instruction leaves).
+    #[inline(always)]
+    pub fn mask(self, o: F8, f: impl Fn(f32, f32) -> bool) -> F8 {
+        self.zip(o, |a, b| f32::from_bits(if f(a, b) { u32::MAX } else { 0 }))
+    }
+    #[inline(always)]
+    pub fn lt(self, o: F8) -> F8 {
+        self.mask(o, |a, b| a < b)
+    }
+    #[inline(always)]
+    pub fn gt(self, o: F8) -> F8 {
+        self.mask(o, |a, b| a > b)
+    }
+    #[inline(always)]
+    pub fn le(self, o: F8) -> F8 {
+        self.mask(o, |a, b| a <= b)
+    }
+    #[inline(always)]
+    pub fn ne(self, o: F8) -> F8 {
+        self.mask(o, |a, b| a != b)
+    }
+    #[inline(always)]
+    pub fn bits(self, o: F8, f: impl Fn(u32, u32) -> u32) -> F8 {
+        self.zip(o, |a, b| f32::from_bits(f(a.to_bits(), b.to_bits())))
+    }
+    #[inline(always)]
+    pub fn and(self, o: F8) -> F8 {
+        self.bits(o, |a, b| a & b)
+    }
+    #[inline(always)]
+    pub fn or(self, o: F8) -> F8 {
+        self.bits(o, |a, b| a | b)
+    }
+    #[inline(always)]
+    pub fn and_not(self, o: F8) -> F8 {
+        self.bits(o, |a, b| a & !b)
+    }
+    /// Whether lane `l` of a mask is set.
+    #[inline(always)]
+    pub fn is(self, l: usize) -> bool {
+        self.0[l].to_bits() != 0
+    }
+    /// `a` where `mask`, else `b`.
+    #[inline(always)]
+    pub fn select(mask: F8, a: F8, b: F8) -> F8 {
+        let mut out = [0.0; 8];
+        for l in 0..8 {
+            out[l] = if mask.0[l].to_bits() != 0 {
+                a.0[l]
+            } else {
+                b.0[l]
+            };
+        }
+        F8(out)
+    }
+    /// The quadrant of a whole number of quarter turns: odd, and in the
+    /// upper half turn.
+    #[inline(always)]
+    pub fn quadrant(self) -> (F8, F8) {
+        let bit =
+            |b: i32| self.each(|q| f32::from_bits(if (q as i32) & b != 0 { u32::MAX } else { 0 }));
+        (bit(1), bit(2))
+    }
+    /// `x.next_up()` where `offset > 0`, `next_down` where below, `x`
+    /// where zero (`Ray::spawn`'s last step): the standard library's
+    /// steps on the bits, without its branches.
+    #[inline(always)]
+    pub fn away(self, offset: F8) -> F8 {
+        let mut out = [0.0; 8];
+        for l in 0..8 {
+            let (x, o) = (self.0[l], offset.0[l]);
+            // Conditions as all-ones masks, so that the loop has no branch.
+            let all = |c: bool| 0u32.wrapping_sub(c as u32);
+            let pick = |m: u32, a: u32, b: u32| (a & m) | (b & !m);
+            let bits = x.to_bits();
+            let abs = bits & 0x7fff_ffff;
+            let negative = all(bits != abs);
+            let (up, down) = (all(o > 0.0), all(o < 0.0));
+            // The magnitude grows going up from a positive number or down
+            // from a negative one, and shrinks the other way.
+            let grow = (up & !negative) | (down & negative);
+            let shrink = (up & negative) | (down & !negative);
+            let stepped = bits.wrapping_add(grow & 1).wrapping_sub(shrink & 1);
+            let zero_to = (down & 0x8000_0000) | 1;
+            let keep = all(abs > 0x7f80_0000) | (all(abs == 0x7f80_0000) & grow);
+            let next = pick(
+                all(abs == 0) & (up | down),
+                zero_to,
+                pick(keep, bits, stepped),
+            );
+            out[l] = f32::from_bits(next);
+        }
+        F8(out)
+    }
+}
+
+macro_rules! op {
+    ($trait:ident, $f:ident, $op:tt) => {
+        impl std::ops::$trait for F8 {
+            type Output = F8;
+            #[inline(always)]
+            fn $f(self, o: F8) -> F8 {
+                self.zip(o, |a, b| a $op b)
+            }
+        }
+    };
+}
+op!(Add, add, +);
+op!(Sub, sub, -);
+op!(Mul, mul, *);
+op!(Div, div, /);
+
+impl std::ops::Neg for F8 {
+    type Output = F8;
+    #[inline(always)]
+    fn neg(self) -> F8 {
+        self.each(|x| -x)
+    }
+}
