@@ -11,7 +11,7 @@ use glam::Vec3;
 
 use crate::geom::sampling::{cosine_hemisphere, luminance, uniform_sphere, Frame, Rng};
 use crate::scene::environment::Environment;
-use crate::scene::{Light, Scene};
+use crate::scene::{AreaLight, Light, Scene};
 
 /// Incident light from one sample of a light.
 #[derive(Clone, Copy, Debug)]
@@ -215,6 +215,8 @@ pub struct LightSet {
     /// Index into `each` of the ambient light, if any.
     ambient: Option<usize>,
     pub environment: Option<Arc<Environment>>,
+    /// The area lights of `each`, in its order.
+    areas: Vec<AreaLight>,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -233,6 +235,7 @@ impl LightSet {
             by_primitive: HashMap::new(),
             ambient: None,
             environment: scene.environment.clone(),
+            areas: Vec::new(),
         };
         let mut refs = Vec::with_capacity(scene.lights.len());
         for light in &scene.lights {
@@ -296,7 +299,26 @@ impl LightSet {
         if let Some(last) = set.emitter_cdf.last_mut() {
             *last = 1.0;
         }
+        let areas = set.each.iter().filter_map(|l| match l {
+            Light::Area(a) => Some(*a),
+            _ => None,
+        });
+        set.areas = areas.collect();
         set
+    }
+
+    /// The lights a vertex samples, when they are all rectangular area
+    /// lights of the file's (no point, directional, emitting triangle or
+    /// sphere, ambient light nor map): the lights a wave in arrays takes
+    /// ([`crate::render::integrator::ArrayPlan`]).
+    pub fn areas_only(&self) -> Option<&[AreaLight]> {
+        let only = self.delta.is_empty()
+            && self.emitters.is_empty()
+            && self.environment.is_none()
+            && !self.areas.is_empty()
+            && self.areas.len() == self.each.len()
+            && self.areas.iter().all(|a| !a.triangle);
+        only.then_some(&self.areas[..])
     }
 
     /// Probability that one emitter sample picks emitter `i`.

@@ -11,7 +11,7 @@ use std::time::Instant;
 
 use glam::Vec3;
 
-use super::integrator::{Integrator, PathState, ShadowTape};
+use super::integrator::{ArrayWave, Integrator, PathState, ShadowTape};
 use super::lanes::surface_points;
 use crate::accel::native::cpu::Avx2;
 use crate::accel::{Accel, Coherence, TraceCounters};
@@ -103,6 +103,8 @@ pub struct Wave<'s> {
     rays: Vec<Ray>,
     /// The surface points of their hits, computed in lanes.
     points: Vec<SurfacePoint>,
+    /// The wave in arrays, where its plan takes the scene.
+    arrays: ArrayWave,
 }
 
 impl<'s> Wave<'s> {
@@ -117,6 +119,7 @@ impl<'s> Wave<'s> {
             + held(&self.paused)
             + held(&self.rays)
             + held(&self.points)
+            + self.arrays.held_bytes()
     }
 
     /// The radiance along each of `camera_rays`, path `k` drawing from
@@ -161,6 +164,19 @@ impl<'s> Wave<'s> {
         }
         lap(&mut self.times.closest);
         let avx2 = Avx2::detect();
+        if let Some(plan) = integrator.array_plan(avx2) {
+            self.arrays.radiance(
+                integrator,
+                &plan,
+                camera_rays,
+                &self.hits[..n],
+                streams,
+                counters,
+                values,
+                &mut self.times,
+            );
+            return;
+        }
         self.tape.clear();
         self.states.clear();
         self.states.resize_with(n, || PathState::Done(Vec3::ZERO));

@@ -7,6 +7,7 @@
 
 use std::sync::atomic::{AtomicU64, Ordering};
 
+use hybrid::accel::native::cpu::Avx2;
 use hybrid::accel::native::NativeOptions;
 use hybrid::accel::{Accel, BackendConfig, Coherence, TraceCounters};
 use hybrid::geom::{Hit, Ray};
@@ -16,7 +17,9 @@ use hybrid::parity::rays::{
     bounce_rays, camera_rays, incoherent_rays, occlusion_rays, shadow_rays,
 };
 use hybrid::render::camera::ThinLens;
-use hybrid::render::integrator::{DirectEstimator, PathSettings, Shading};
+use hybrid::render::integrator::{
+    Background, BounceView, DirectEstimator, Integrator, PathSettings, Shading,
+};
 use hybrid::render::{render, Adaptive, Batching, RenderSettings, Silent};
 use hybrid::scene::Scene;
 
@@ -382,6 +385,105 @@ fn batching_leaves_the_image_unchanged() {
             );
         }
     }
+}
+
+/// A wave in arrays (its paths' state in lists, stepped eight paths at a
+/// time: `render::integrator::ArrayWave`) gives the bits of the paths
+/// walked alone, and traces as many rays: CBbunny (smoothly shaded
+/// triangles, Lambertian walls, an area light) under MIS and light
+/// sampling, several light samples, Russian roulette, `-o 0`, direct
+/// light only, a black background and adaptive sampling, on one thread and
+/// three. Where the CPU runs AVX2 the arrays do take these frames.
+#[test]
+fn waves_in_arrays_give_the_bits_of_paths_alone() {
+    let scene = scene_or_skip!("sky/CBbunny.dae");
+    let native = BackendConfig::NATIVE.build(&scene).expect("native builds");
+    let base = RenderSettings {
+        width: 40,
+        height: 30,
+        samples: 6,
+        seed: 11,
+        ..RenderSettings::default()
+    };
+    let with_path = |p: PathSettings| RenderSettings {
+        shading: Shading::Path(p),
+        ..base.clone()
+    };
+    let variants = [
+        with_path(PathSettings {
+            max_bounces: 5,
+            ..PathSettings::default()
+        }),
+        with_path(PathSettings {
+            estimator: DirectEstimator::LightSampling,
+            light_samples: 3,
+            max_bounces: 3,
+            ..PathSettings::default()
+        }),
+        with_path(PathSettings {
+            max_bounces: 7,
+            russian_roulette: Some(0.6),
+            ..PathSettings::default()
+        }),
+        with_path(PathSettings {
+            max_bounces: 3,
+            accumulate: false,
+            ..PathSettings::default()
+        }),
+        with_path(PathSettings {
+            max_bounces: 4,
+            view: BounceView::Direct,
+            background: Background::Black,
+            ..PathSettings::default()
+        }),
+        RenderSettings {
+            samples: 24,
+            adaptive: Some(Adaptive {
+                batch: 4,
+                tolerance: 0.3,
+            }),
+            ..with_path(PathSettings {
+                max_bounces: 4,
+                ..PathSettings::default()
+            })
+        },
+    ];
+    for (v, settings) in variants.iter().enumerate() {
+        if Avx2::detect().is_some() {
+            let Shading::Path(_) = settings.shading else {
+                unreachable!("path-traced variants")
+            };
+            let integrator = Integrator::new(&scene, &native, settings.shading);
+            assert!(
+                integrator.array_plan(Avx2::detect()).is_some(),
+                "variant {v}: the arrays refused CBbunny"
+            );
+        }
+        let alone = frame(&scene, &native, settings, Batching::Alone, 1);
+        for threads in [1, 3] {
+            let waves = frame(&scene, &native, settings, Batching::Waves, threads);
+            let what = format!("variant {v}, {threads} threads");
+            assert!(alone.0 == waves.0, "{what}: sums differ");
+            assert_eq!(alone.1, waves.1, "{what}: samples per pixel differ");
+            assert_eq!(alone.2, waves.2, "{what}: rays traced differ");
+        }
+    }
+    // What the arrays do not take goes through the paths' states: the
+    // hemisphere estimator, normals, and a scene with a glossy cube.
+    let refused = |scene: &Scene, shading: Shading| {
+        let native = BackendConfig::NATIVE.build(scene).expect("native builds");
+        Integrator::new(scene, &native, shading)
+            .array_plan(Avx2::detect())
+            .is_none()
+    };
+    let hemisphere = Shading::Path(PathSettings {
+        estimator: DirectEstimator::Hemisphere,
+        ..PathSettings::default()
+    });
+    assert!(refused(&scene, hemisphere));
+    assert!(refused(&scene, Shading::Normals));
+    let path = Shading::Path(PathSettings::default());
+    assert!(refused(&crate::common::default_scene(), path));
 }
 
 /// A wave renderer says where its time went: each phase (extension-ray

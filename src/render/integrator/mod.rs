@@ -25,10 +25,12 @@
 
 use glam::Vec3;
 
+mod arrays;
 mod direct;
 mod paths;
 mod shadows;
 
+pub use self::arrays::{ArrayPlan, ArrayWave};
 use self::paths::Walk;
 pub use self::paths::{PathState, Paused};
 pub use self::shadows::ShadowTape;

@@ -1,0 +1,843 @@
+//! A wave's paths with their state in lists, one per value (structure of
+//! arrays), stepped by passes that work eight paths at a time: the design
+//! `examples/soa_step.rs` measured at 2.9-3.05x the `PathState` step on
+//! the same hits, the same rays to the bit (docs/experiments.md, stop
+//! 51). Each bounce: the extension rays' closest hits in one batch; what
+//! each path sees there (emission, the sky), in the order and operations
+//! of [`Integrator::arrive`]; the surface points and vertices (facing,
+//! frame, the point lifted onto the smooth surface) in lanes; one light
+//! stream split off each path; every light sample with its MIS-weighted
+//! term and shadow ray in lanes; the shadow rays in one batch; each path's
+//! direct light summed as [`super::ShadowTape::sum`] sums it; and the BSDF
+//! sample, path by path, as [`Integrator::leave`] takes it. So the image
+//! has the bits of the paths walked alone (tested).
+//!
+//! It takes the scenes it was measured on ([`ArrayPlan`]): smooth-shaded
+//! triangles, Lambertian and emitting materials, rectangular area lights
+//! estimated by light sampling or MIS. Every other scene goes through the
+//! `PathState` wave.
+
+use glam::Vec3;
+
+use super::{
+    power_heuristic, Background, DirectEstimator, Integrator, PathSettings, Previous, Shading,
+};
+use crate::accel::native::cpu::Avx2;
+use crate::accel::{Accel, Coherence, TraceCounters};
+use crate::geom::sampling::{cosine_hemisphere, Rng};
+use crate::geom::{gamma, Hit, Ray};
+use crate::render::f8::F8;
+use crate::render::light::Facing;
+use crate::render::material::emitted;
+use crate::render::wave::{held, WaveTimes};
+use crate::scene::{AreaLight, Material, NormalMode};
+use crate::{each3, map3};
+
+/// Lanes of a pass.
+const L: usize = 8;
+
+/// Light samples a vertex takes at most here (lights times `-l`).
+const MOST_SAMPLES: usize = 8;
+
+/// Proof that a wave may run in arrays: the CPU runs AVX2, the scene is
+/// smooth-shaded triangles of Lambertian and emitting materials, every
+/// light a vertex samples is a rectangular area light of the file's
+/// ([`crate::render::light::LightSet::areas_only`]), light sampling or MIS
+/// estimates them, and a vertex takes at most [`MOST_SAMPLES`] samples.
+pub struct ArrayPlan<'l> {
+    areas: &'l [AreaLight],
+    s: PathSettings,
+    avx2: Avx2,
+}
+
+impl<A: Accel> Integrator<'_, A> {
+    /// The plan of a wave in arrays, if this integrator's scene and
+    /// settings are ones it takes.
+    pub fn array_plan(&self, avx2: Option<Avx2>) -> Option<ArrayPlan<'_>> {
+        let (Shading::Path(s), Some(avx2)) = (self.shading, avx2) else {
+            return None;
+        };
+        let areas = self.lights.areas_only()?;
+        let estimated = matches!(
+            s.estimator,
+            DirectEstimator::LightSampling | DirectEstimator::Mis
+        );
+        let materials = self
+            .scene
+            .materials
+            .iter()
+            .all(|m| matches!(m, Material::Lambertian { .. } | Material::Emission { .. }));
+        let takes = estimated
+            && materials
+            && self.scene.spheres.is_empty()
+            && self.scene.normal_mode == NormalMode::Smooth
+            && areas.len() * s.light_samples.max(1) as usize <= MOST_SAMPLES;
+        takes.then_some(ArrayPlan { areas, s, avx2 })
+    }
+}
+
+/// Three lists, one per coordinate.
+type Lists = [Vec<f32>; 3];
+
+/// A wave's paths and the lists its passes reuse from bounce to bounce.
+#[derive(Default)]
+pub struct ArrayWave {
+    // Each path's state (index: the path).
+    total: Vec<Vec3>,
+    beta: Vec<Vec3>,
+    depth: Vec<u32>,
+    prev: Vec<Previous>,
+    ray: Vec<Ray>,
+    /// The paths with a ray this bounce, and their rays and hits.
+    live: Vec<u32>,
+    rays: Vec<Ray>,
+    hits: Vec<Option<Hit>>,
+    /// The paths at a Lambertian vertex this bounce (index: the vertex),
+    /// and each vertex's lists, padded to whole groups of eight.
+    at: Vec<u32>,
+    albedo: Vec<Vec3>,
+    dir: Lists,
+    w: Lists,
+    corner: [Lists; 3],
+    normal: [Lists; 3],
+    p: Lists,
+    error: Lists,
+    ng: Lists,
+    ns: Lists,
+    s: Lists,
+    t: Lists,
+    lift: Lists,
+    lifted: Vec<f32>,
+    /// Whether a vertex's normals took the plain case in lanes (a mask).
+    plain: Vec<f32>,
+    /// Each vertex's light stream, if it takes direct light.
+    light_stream: Vec<Option<Rng>>,
+    /// Each light sample of every vertex: its term, whether it has a
+    /// shadow ray (a mask), and the ray.
+    term: Vec<Lists>,
+    has_ray: Vec<Vec<f32>>,
+    shadow: Vec<[Vec<f32>; 8]>,
+    shadow_rays: Vec<Ray>,
+    blocked: Vec<bool>,
+    /// The BSDF sample's numbers and density, which paths go on (a
+    /// mask), and their next rays.
+    draws: Lists,
+    going: Vec<f32>,
+    next: [Vec<f32>; 6],
+}
+
+/// Clears `lists` and gives them `n` zeros each.
+fn zeros(lists: &mut [Vec<f32>], n: usize) {
+    for l in lists {
+        l.clear();
+        l.resize(n, 0.0);
+    }
+}
+
+/// Three coordinates of eight vertices from `lists` at vertex `i`.
+#[inline(always)]
+fn v3(lists: &Lists, i: usize) -> [F8; 3] {
+    each3!(|a| F8::load(&lists[a][i..]))
+}
+
+#[inline(always)]
+fn store3(v: [F8; 3], lists: &mut Lists, i: usize) {
+    for (a, v) in v.into_iter().enumerate() {
+        v.store(&mut lists[a][i..]);
+    }
+}
+
+#[inline(always)]
+fn dot(a: [F8; 3], b: [F8; 3]) -> F8 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+#[inline(always)]
+fn lane(lists: &Lists, i: usize) -> Vec3 {
+    Vec3::new(lists[0][i], lists[1][i], lists[2][i])
+}
+
+/// `Ray::spawn`'s origin: the point moved past its error bound along the
+/// normal, to the side `dir` leaves on, then one ulp further away.
+#[inline(always)]
+fn spawn(p: [F8; 3], error: [F8; 3], ng: [F8; 3], dir: [F8; 3]) -> [F8; 3] {
+    let zero = F8::splat(0.0);
+    let d = ng[0].abs() * error[0] + ng[1].abs() * error[1] + ng[2].abs() * error[2];
+    let d = F8::select(dot(dir, ng).lt(zero), -d, d);
+    let mut origin = [zero; 3];
+    for k in 0..3 {
+        let offset = ng[k] * d;
+        origin[k] = (p[k] + offset).away(offset);
+    }
+    origin
+}
+
+impl ArrayWave {
+    /// The bytes the wave's lists hold.
+    pub fn held_bytes(&self) -> usize {
+        let lists = |l: &[Vec<f32>]| l.iter().map(held).sum::<usize>();
+        let mut bytes = held(&self.total)
+            + held(&self.beta)
+            + held(&self.depth)
+            + held(&self.prev)
+            + held(&self.ray)
+            + held(&self.live)
+            + held(&self.rays)
+            + held(&self.hits)
+            + held(&self.at)
+            + held(&self.albedo)
+            + held(&self.lifted)
+            + held(&self.plain)
+            + held(&self.light_stream)
+            + held(&self.shadow_rays)
+            + held(&self.blocked)
+            + held(&self.going)
+            + lists(&self.draws)
+            + lists(&self.next);
+        for l in [
+            &self.dir,
+            &self.w,
+            &self.p,
+            &self.error,
+            &self.ng,
+            &self.ns,
+            &self.s,
+            &self.t,
+            &self.lift,
+        ] {
+            bytes += lists(l);
+        }
+        for k in 0..3 {
+            bytes += lists(&self.corner[k]) + lists(&self.normal[k]);
+        }
+        for j in 0..self.term.len() {
+            bytes += lists(&self.term[j]) + held(&self.has_ray[j]) + lists(&self.shadow[j]);
+        }
+        bytes
+    }
+
+    /// The radiance along each of `camera_rays`, whose closest hits are
+    /// `first`, path `k` drawing from `streams[k]`, into `values`; where
+    /// the time went into `times`.
+    #[allow(clippy::too_many_arguments)]
+    pub fn radiance<A: Accel>(
+        &mut self,
+        integrator: &Integrator<A>,
+        plan: &ArrayPlan,
+        camera_rays: &[Ray],
+        first: &[Option<Hit>],
+        streams: &mut [Rng],
+        counters: &mut TraceCounters,
+        values: &mut Vec<Vec3>,
+        times: &mut WaveTimes,
+    ) {
+        let mut clock = std::time::Instant::now();
+        let mut lap = |into: &mut f64| {
+            let now = std::time::Instant::now();
+            *into += (now - clock).as_secs_f64();
+            clock = now;
+        };
+        let n = camera_rays.len();
+        self.total.clear();
+        self.total.resize(n, Vec3::ZERO);
+        self.beta.clear();
+        self.beta.resize(n, Vec3::ONE);
+        self.depth.clear();
+        self.depth.resize(n, 0);
+        self.prev.clear();
+        self.prev.extend(camera_rays.iter().map(|r| Previous {
+            bsdf_pdf: 0.0,
+            from: r.origin,
+            facing: Facing::geometric(Vec3::Y),
+        }));
+        self.ray.clear();
+        self.ray.extend_from_slice(camera_rays);
+        self.live.clear();
+        self.live.extend(0..n as u32);
+        self.rays.clear();
+        self.rays.extend_from_slice(camera_rays);
+        self.hits.clear();
+        self.hits.extend_from_slice(first);
+        loop {
+            self.arrive(integrator, plan);
+            self.vertices(integrator, plan);
+            self.light(integrator, plan, streams);
+            lap(&mut times.paths);
+            self.shadow_rays.clear();
+            for (i, stream) in self.light_stream.iter().enumerate() {
+                if stream.is_none() {
+                    continue;
+                }
+                for j in 0..self.term.len() {
+                    if self.has_ray[j][i] != 0.0 {
+                        let r = &self.shadow[j];
+                        self.shadow_rays
+                            .push(Ray::from_flat(&std::array::from_fn(|c| r[c][i])));
+                    }
+                }
+            }
+            self.blocked.clear();
+            self.blocked.resize(self.shadow_rays.len(), false);
+            integrator
+                .accel()
+                .occluded_all(&self.shadow_rays, &mut self.blocked, counters);
+            lap(&mut times.occluded);
+            self.sum(plan);
+            self.leave(plan, streams);
+            lap(&mut times.paths);
+            if self.live.is_empty() {
+                break;
+            }
+            self.rays.clear();
+            self.rays
+                .extend(self.live.iter().map(|&k| self.ray[k as usize]));
+            self.hits.clear();
+            self.hits.resize(self.rays.len(), None);
+            integrator.accel().closest_hits(
+                &self.rays,
+                Coherence::Incoherent,
+                &mut self.hits,
+                counters,
+            );
+            lap(&mut times.closest);
+        }
+        values.clear();
+        values.extend_from_slice(&self.total);
+    }
+
+    /// What each live path sees at its hit, as [`Integrator::arrive`]
+    /// counts it: the sky where it missed, emission where it hit a light.
+    /// The paths that scatter there (from a Lambertian vertex, below the
+    /// last bounce) go into `at`, their vertices' hit data gathered into
+    /// the lists and their surface points computed in lanes.
+    fn arrive<A: Accel>(&mut self, integrator: &Integrator<A>, plan: &ArrayPlan) {
+        let (scene, s) = (integrator.scene, &plan.s);
+        self.at.clear();
+        self.albedo.clear();
+        for (i, &k) in self.live.iter().enumerate() {
+            let k = k as usize;
+            let (ray, depth) = (self.rays[i], self.depth[k]);
+            let Some(hit) = self.hits[i] else {
+                if s.counts(depth) && !(depth == 0 && s.background == Background::Black) {
+                    self.total[k] += self.beta[k] * integrator.escaped(s, &self.prev[k], ray.dir);
+                }
+                continue;
+            };
+            let m = &scene.materials[scene.material_of(hit.prim) as usize];
+            if s.counts(depth) && m.emission() != Vec3::ZERO {
+                let sp = scene.surface_point(&ray, &hit);
+                let le = emitted(m, (-ray.dir).dot(sp.geometric_normal));
+                if le != Vec3::ZERO {
+                    let prev = &self.prev[k];
+                    if prev.bsdf_pdf == 0.0 {
+                        self.total[k] += self.beta[k] * le;
+                    } else if s.estimator == DirectEstimator::Mis {
+                        let light = integrator.light_pdf(
+                            s,
+                            prev,
+                            hit.prim,
+                            sp.position,
+                            sp.geometric_normal,
+                            ray.dir,
+                        );
+                        self.total[k] += self.beta[k] * le * power_heuristic(prev.bsdf_pdf, light);
+                    }
+                }
+            }
+            // An emitter's vertex adds nothing more: its light samples
+            // and BSDF give zero.
+            let Material::Lambertian { albedo, .. } = *m else {
+                continue;
+            };
+            if depth >= s.last_bounce() {
+                continue;
+            }
+            self.at.push(i as u32);
+            self.albedo.push(albedo);
+        }
+        // The vertices' lists: hit data gathered, padded with the last.
+        let count = self.at.len();
+        let padded = count.div_ceil(L) * L;
+        for lists in [
+            &mut self.dir,
+            &mut self.w,
+            &mut self.p,
+            &mut self.error,
+            &mut self.ng,
+            &mut self.ns,
+        ] {
+            zeros(lists, padded);
+        }
+        for k in 0..3 {
+            zeros(&mut self.corner[k], padded);
+            zeros(&mut self.normal[k], padded);
+        }
+        self.plain.clear();
+        self.plain.resize(padded, 0.0);
+        for v in 0..padded {
+            let i = self.at[v.min(count - 1)] as usize;
+            let (ray, hit) = (&self.rays[i], self.hits[i].expect("a vertex's hit"));
+            let p = hit.prim as usize;
+            let corners = scene.mesh.corners(p);
+            let normals = scene.corner_normals(p);
+            let w = crate::scene::barycentric_weights(&hit);
+            for a in 0..3 {
+                self.dir[a][v] = ray.dir[a];
+                self.w[a][v] = w[a];
+                for c in 0..3 {
+                    self.corner[c][a][v] = corners[c][a];
+                    self.normal[c][a][v] = normals[c][a];
+                }
+            }
+        }
+        surface_pass(plan.avx2, self);
+        // Lanes whose normals left the plain case: the scalar function.
+        for v in 0..count {
+            if self.plain[v] != 0.0 {
+                continue;
+            }
+            let i = self.at[v] as usize;
+            let sp = scene.surface_point(&self.rays[i], &self.hits[i].expect("a vertex's hit"));
+            for a in 0..3 {
+                self.p[a][v] = sp.position[a];
+                self.error[a][v] = sp.error[a];
+                self.ng[a][v] = sp.geometric_normal[a];
+                self.ns[a][v] = sp.shading_normal[a];
+            }
+        }
+    }
+
+    /// Each vertex's facing, shading frame and terminator lift, in lanes
+    /// (the operations of `Integrator::arrive`, `Frame::new` and
+    /// `Scene::shadow_lift`).
+    fn vertices<A: Accel>(&mut self, _integrator: &Integrator<A>, plan: &ArrayPlan) {
+        let padded = self.dir[0].len();
+        for lists in [&mut self.s, &mut self.t, &mut self.lift] {
+            zeros(lists, padded);
+        }
+        self.lifted.clear();
+        self.lifted.resize(padded, 0.0);
+        vertex_pass(plan.avx2, self);
+    }
+
+    /// Each vertex's light stream, and its light samples' terms and
+    /// shadow rays, in lanes (`Integrator::direct` for area lights).
+    fn light<A: Accel>(
+        &mut self,
+        _integrator: &Integrator<A>,
+        plan: &ArrayPlan,
+        streams: &mut [Rng],
+    ) {
+        let s = &plan.s;
+        let padded = self.dir[0].len();
+        let slots = plan.areas.len() * s.light_samples.max(1) as usize;
+        self.term.resize_with(slots, Default::default);
+        self.has_ray.resize_with(slots, Vec::new);
+        self.shadow.resize_with(slots, Default::default);
+        for j in 0..slots {
+            zeros(&mut self.term[j], padded);
+            zeros(std::slice::from_mut(&mut self.has_ray[j]), padded);
+            zeros(&mut self.shadow[j], padded);
+        }
+        self.light_stream.clear();
+        for &i in &self.at {
+            let k = self.live[i as usize] as usize;
+            // `Integrator::light_stream`: split at every vertex that is
+            // not specular (none here is), used or not.
+            let light_stream = streams[k].split();
+            self.light_stream
+                .push(s.counts(self.depth[k] + 1).then_some(light_stream));
+        }
+        let (mut u, mut v) = (vec![0.0f32; padded], vec![0.0f32; padded]);
+        let mut slot = 0;
+        for light in plan.areas {
+            for _ in 0..s.light_samples.max(1) {
+                for (i, stream) in self.light_stream.iter_mut().enumerate() {
+                    if let Some(stream) = stream {
+                        (u[i], v[i]) = stream.next_2d();
+                    }
+                }
+                light_pass(plan, self, light, slot, &u, &v);
+                slot += 1;
+            }
+        }
+    }
+
+    /// Each vertex's direct light, as the tape sums it: each light's
+    /// samples (zero where blocked or without a ray) averaged, the means
+    /// summed, times the path's throughput.
+    fn sum(&mut self, plan: &ArrayPlan) {
+        let n = plan.s.light_samples.max(1);
+        let mut ray = 0;
+        for (v, &i) in self.at.iter().enumerate() {
+            if self.light_stream[v].is_none() {
+                continue;
+            }
+            let k = self.live[i as usize] as usize;
+            let mut sum = Vec3::ZERO;
+            let mut slot = 0;
+            for _ in plan.areas {
+                let mut group = Vec3::ZERO;
+                for _ in 0..n {
+                    let term = if self.has_ray[slot][v] != 0.0 {
+                        ray += 1;
+                        if self.blocked[ray - 1] {
+                            Vec3::ZERO
+                        } else {
+                            lane(&self.term[slot], v)
+                        }
+                    } else {
+                        Vec3::ZERO
+                    };
+                    group += term;
+                    slot += 1;
+                }
+                sum += group / n as f32;
+            }
+            self.total[k] += self.beta[k] * sum;
+        }
+    }
+
+    /// Each vertex's path leaves along a BSDF sample (after Russian
+    /// roulette from the second vertex on), as [`Integrator::leave`]
+    /// takes it: the draws path by path, the direction and ray in lanes;
+    /// the paths that go on are the next bounce's live ones.
+    fn leave(&mut self, plan: &ArrayPlan, streams: &mut [Rng]) {
+        let s = &plan.s;
+        let padded = self.dir[0].len();
+        zeros(&mut self.draws, padded);
+        self.going.clear();
+        self.going.resize(padded, 0.0);
+        for (v, &i) in self.at.iter().enumerate() {
+            let k = self.live[i as usize] as usize;
+            let rng = &mut streams[k];
+            if self.depth[k] >= 1 {
+                if let Some(p) = s.russian_roulette {
+                    if rng.next_f32() >= p {
+                        continue;
+                    }
+                    self.beta[k] /= p;
+                }
+            }
+            // `material::sample`'s two numbers (a Lambertian surface).
+            (self.draws[0][v], self.draws[1][v]) = rng.next_2d();
+            self.going[v] = 1.0;
+        }
+        zeros(&mut self.next, padded);
+        bsdf_pass(plan.avx2, self);
+        let mut next = Vec::with_capacity(self.at.len());
+        for (v, &i) in self.at.iter().enumerate() {
+            if self.going[v] == 0.0 {
+                continue;
+            }
+            let k = self.live[i as usize] as usize;
+            self.beta[k] *= self.albedo[v];
+            if self.beta[k] == Vec3::ZERO || !self.beta[k].is_finite() {
+                continue;
+            }
+            let ng = lane(&self.ng, v);
+            self.prev[k] = Previous {
+                bsdf_pdf: self.draws[2][v],
+                from: lane(&self.p, v),
+                facing: Facing {
+                    geometric: ng,
+                    smooth: (self.lifted[v] != 0.0).then(|| lane(&self.ns, v)),
+                },
+            };
+            self.ray[k] = Ray {
+                origin: Vec3::new(self.next[0][v], self.next[1][v], self.next[2][v]),
+                dir: Vec3::new(self.next[3][v], self.next[4][v], self.next[5][v]),
+                t_min: 0.0,
+                t_max: f32::INFINITY,
+            };
+            self.depth[k] += 1;
+            next.push(k as u32);
+        }
+        self.live = next;
+    }
+}
+
+/// The BSDF pass behind its proof of AVX2.
+fn bsdf_pass(_avx2: Avx2, wave: &mut ArrayWave) {
+    // SAFETY: `Avx2` exists only where the CPU runs AVX2
+    // (`Avx2::detect`), the pass's one requirement.
+    unsafe { bsdf_avx2(wave) }
+}
+
+/// A cosine-weighted direction from each vertex whose path goes on
+/// (`material::sample` for a Lambertian surface, `Integrator::leave`), and
+/// its ray (`Ray::spawn`), eight vertices at a time; `going` keeps the
+/// paths whose direction leaves the facet's front, `draws[2]` takes the
+/// direction's density.
+///
+/// # Safety
+/// The CPU must run AVX2.
+#[target_feature(enable = "avx2")]
+unsafe fn bsdf_avx2(wave: &mut ArrayWave) {
+    let zero = F8::splat(0.0);
+    let frac_1_pi = F8::splat(std::f32::consts::FRAC_1_PI);
+    for i in (0..wave.dir[0].len()).step_by(L) {
+        // `cosine_hemisphere` lane by lane: its sine and cosine are
+        // libm's, whose bits the lanes must keep.
+        let mut local = [zero; 3];
+        for l in 0..L {
+            let d = cosine_hemisphere(wave.draws[0][i + l], wave.draws[1][i + l]);
+            for k in 0..3 {
+                local[k].0[l] = d[k];
+            }
+        }
+        let (s, t, n) = (v3(&wave.s, i), v3(&wave.t, i), v3(&wave.ns, i));
+        let wi = each3!(|k| s[k] * local[0] + t[k] * local[1] + n[k] * local[2]);
+        let ng = v3(&wave.ng, i);
+        let going = F8::load(&wave.going[i..]).gt(zero);
+        // (As `leave` tests them: a NaN would go on.)
+        let ok = going
+            .and_not(local[2].le(zero))
+            .and_not(dot(wi, ng).le(zero));
+        F8::select(ok, F8::splat(1.0), zero).store(&mut wave.going[i..]);
+        (local[2] * frac_1_pi).store(&mut wave.draws[2][i..]);
+        let origin = spawn(v3(&wave.p, i), v3(&wave.error, i), ng, wi);
+        for k in 0..3 {
+            origin[k].store(&mut wave.next[k][i..]);
+            wi[k].store(&mut wave.next[3 + k][i..]);
+        }
+    }
+}
+
+/// The surface pass behind its proof of AVX2.
+fn surface_pass(_avx2: Avx2, wave: &mut ArrayWave) {
+    // SAFETY: `Avx2` exists only where the CPU runs AVX2
+    // (`Avx2::detect`), the pass's one requirement.
+    unsafe { surface_avx2(wave) }
+}
+
+/// Each vertex's surface point (`Scene::surface_point` of a smoothly
+/// shaded triangle, in its operations and order, as
+/// `render::lanes::surface_points`), eight vertices at a time; `plain`
+/// marks the lanes whose normals took the plain case (the others are the
+/// scalar function's to answer).
+///
+/// # Safety
+/// The CPU must run AVX2.
+#[target_feature(enable = "avx2")]
+unsafe fn surface_avx2(wave: &mut ArrayWave) {
+    let margin_ulps = F8::splat(gamma(crate::scene::TEST_ULPS));
+    let g9 = F8::splat(gamma(9));
+    let (zero, one, two, three) = (
+        F8::splat(0.0),
+        F8::splat(1.0),
+        F8::splat(2.0),
+        F8::splat(3.0),
+    );
+    let (tiny, inf) = (F8::splat(f32::MIN_POSITIVE), F8::splat(f32::INFINITY));
+    for i in (0..wave.dir[0].len()).step_by(L) {
+        let w = v3(&wave.w, i);
+        let c = each3!(|k| v3(&wave.corner[k], i));
+        let nm = each3!(|k| v3(&wave.normal[k], i));
+        // Vec3::max per coordinate, then the largest.
+        let d = |x: usize, y: usize, a: usize| (c[x][a] - c[y][a]).abs();
+        let size = each3!(|a| d(1, 0, a).max(d(2, 0, a)).max(d(2, 1, a)));
+        let margin = margin_ulps * size[0].max(size[1]).max(size[2]);
+        let on = each3!(|a| c[0][a] * w[0] + c[1][a] * w[1] + c[2][a] * w[2]);
+        let inward = each3!(|a| (c[0][a] + c[1][a] + c[2][a]) / three - on[a]);
+        let reach = dot(inward, inward).sqrt();
+        let steps = reach.gt(two * margin);
+        let step = two * margin / reach;
+        let e1 = each3!(|a| c[1][a] - c[0][a]);
+        let e2 = each3!(|a| c[2][a] - c[0][a]);
+        let x = [
+            e1[1] * e2[2] - e1[2] * e2[1],
+            e1[2] * e2[0] - e1[0] * e2[2],
+            e1[0] * e2[1] - e1[1] * e2[0],
+        ];
+        let squared = dot(x, x);
+        let len = squared.sqrt();
+        let ng = map3!(x, |v| v / len);
+        let smooth = each3!(|a| nm[0][a] * w[0] + nm[1][a] * w[1] + nm[2][a] * w[2]);
+        let recip = one / dot(smooth, smooth).sqrt();
+        let unit = map3!(smooth, |v| v * recip);
+        let outward = dot(unit, ng).lt(zero);
+        let plain = squared
+            .gt(tiny)
+            .and(squared.lt(inf))
+            .and(recip.lt(inf))
+            .and(recip.gt(zero));
+        F8::select(plain, one, zero).store(&mut wave.plain[i..]);
+        for a in 0..3 {
+            F8::select(steps, on[a] + inward[a] * step, on[a]).store(&mut wave.p[a][i..]);
+            let e = (c[0][a] * w[0]).abs() + (c[1][a] * w[1]).abs() + (c[2][a] * w[2]).abs();
+            (g9 * e + margin).store(&mut wave.error[a][i..]);
+            ng[a].store(&mut wave.ng[a][i..]);
+            F8::select(outward, -unit[a], unit[a]).store(&mut wave.ns[a][i..]);
+        }
+    }
+}
+
+/// The vertex pass behind its proof of AVX2.
+fn vertex_pass(_avx2: Avx2, wave: &mut ArrayWave) {
+    // SAFETY: `Avx2` exists only where the CPU runs AVX2
+    // (`Avx2::detect`), the pass's one requirement.
+    unsafe { vertex_avx2(wave) }
+}
+
+/// Facing (opaque surfaces are two-sided: the normals turned towards
+/// `wo`; a diffuse surface keeps the smooth normal's side), the shading
+/// frame (`Frame::new`) and the terminator lift (`Scene::shadow_lift`,
+/// `terminator_lift`), eight vertices at a time.
+///
+/// # Safety
+/// The CPU must run AVX2.
+#[target_feature(enable = "avx2")]
+unsafe fn vertex_avx2(wave: &mut ArrayWave) {
+    let (zero, one) = (F8::splat(0.0), F8::splat(1.0));
+    for i in (0..wave.dir[0].len()).step_by(L) {
+        let wo = map3!(v3(&wave.dir, i), |x| -x);
+        let (ng0, ns0) = (v3(&wave.ng, i), v3(&wave.ns, i));
+        let back = dot(wo, ng0).lt(zero);
+        let ng = map3!(ng0, |x| F8::select(back, -x, x));
+        let ns = map3!(ns0, |x| F8::select(back, -x, x));
+        let sign = one.copysign(ns[2]);
+        let fa = -one / (sign + ns[2]);
+        let fb = ns[0] * ns[1] * fa;
+        let s = [one + sign * ns[0] * ns[0] * fa, sign * fb, -sign * ns[0]];
+        let t = [fb, sign + ns[1] * ns[1] * fa, -ns[1]];
+        let w = v3(&wave.w, i);
+        let nk = each3!(|k| v3(&wave.normal[k], i));
+        let interp = each3!(|a| nk[0][a] * w[0] + nk[1][a] * w[1] + nk[2][a] * w[2]);
+        let flip = dot(interp, ng).lt(zero);
+        let p = v3(&wave.p, i);
+        let mut lift = [zero; 3];
+        for k in 0..3 {
+            let nn = map3!(nk[k], |x| F8::select(flip, -x, x));
+            let c = v3(&wave.corner[k], i);
+            let below = dot(each3!(|a| p[a] - c[a]), nn).min(zero);
+            for a in 0..3 {
+                lift[a] = lift[a] - nn[a] * (below * w[k]);
+            }
+        }
+        F8::select(dot(lift, ng).gt(zero), one, zero).store(&mut wave.lifted[i..]);
+        store3(ng, &mut wave.ng, i);
+        store3(ns, &mut wave.ns, i);
+        store3(s, &mut wave.s, i);
+        store3(t, &mut wave.t, i);
+        store3(lift, &mut wave.lift, i);
+    }
+}
+
+/// The light pass behind its proof of AVX2.
+fn light_pass(
+    plan: &ArrayPlan,
+    wave: &mut ArrayWave,
+    light: &AreaLight,
+    slot: usize,
+    u: &[f32],
+    v: &[f32],
+) {
+    // SAFETY: `plan.avx2` proves the CPU runs AVX2, the pass's one
+    // requirement.
+    unsafe { light_avx2(&plan.s, wave, light, slot, u, v) }
+}
+
+/// One sample of `light` at `(u, v)` from each vertex: its MIS-weighted
+/// term and shadow ray (`sample_li`, `Integrator::unoccluded`), eight
+/// vertices at a time.
+///
+/// # Safety
+/// The CPU must run AVX2.
+#[target_feature(enable = "avx2")]
+unsafe fn light_avx2(
+    s: &PathSettings,
+    wave: &mut ArrayWave,
+    light: &AreaLight,
+    slot: usize,
+    u: &[f32],
+    v: &[f32],
+) {
+    let splat3 = |v: Vec3| [F8::splat(v.x), F8::splat(v.y), F8::splat(v.z)];
+    let (o, eu, ev) = (
+        splat3(light.origin),
+        splat3(light.edge_u),
+        splat3(light.edge_v),
+    );
+    let (normal, radiance) = (splat3(light.normal), splat3(light.radiance));
+    let area = F8::splat(light.area);
+    let g1 = F8::splat(gamma(1));
+    let (zero, one, inf) = (F8::splat(0.0), F8::splat(1.0), F8::splat(f32::INFINITY));
+    let frac_1_pi = F8::splat(std::f32::consts::FRAC_1_PI);
+    let end = F8::splat(crate::geom::ray::SHADOW_END);
+    // MIS's weight counts the samples a group takes: `samples * pick`.
+    let samples = (s.estimator == DirectEstimator::Mis)
+        .then(|| F8::splat(s.light_samples.max(1) as f32 * 1.0));
+    let count = wave.at.len();
+    for i in (0..wave.dir[0].len()).step_by(L) {
+        let (u, v) = (F8::load(&u[i..]), F8::load(&v[i..]));
+        let p = v3(&wave.p, i);
+        // `point_at`, then `area_to_solid_angle` and `from_area_point`.
+        let to = each3!(|k| o[k] + eu[k] * u + ev[k] * v - p[k]);
+        let d2 = dot(to, to);
+        let distance = d2.sqrt();
+        let cos_light = -dot(to, normal) / distance;
+        let pdf = d2 / (cos_light * area);
+        let some = d2
+            .ne(zero)
+            .and(cos_light.gt(zero))
+            .and(pdf.gt(zero))
+            .and(pdf.lt(inf));
+        let wi = map3!(to, |x| x / distance);
+        let contribution = map3!(radiance, |x| x / pdf);
+        // `unoccluded`: in front of the shading normal, and of the facet
+        // unless the point is lifted; the BSDF (Lambertian) not zero.
+        let ng = v3(&wave.ng, i);
+        let z = dot(wi, v3(&wave.ns, i));
+        let in_front = dot(wi, ng).gt(zero);
+        let lifted = F8::load(&wave.lifted[i..]).gt(zero);
+        let mut albedo = [zero; 3];
+        for l in 0..L {
+            let a = wave.albedo[(i + l).min(count - 1)];
+            for k in 0..3 {
+                albedo[k].0[l] = a[k];
+            }
+        }
+        let f = map3!(albedo, |x| F8::select(z.gt(zero), x * frac_1_pi, zero));
+        let black = f[0].ne(zero).or(f[1].ne(zero)).or(f[2].ne(zero));
+        let ok = some.and(z.gt(zero)).and(in_front.or(lifted)).and(black);
+        let weight = match samples {
+            Some(n) => {
+                // `power_heuristic(samples * pick * pdf, material::pdf)`.
+                let a = n * pdf;
+                let b = z.max(zero) * frac_1_pi;
+                let (a2, b2) = (a * a, b * b);
+                let sum = a2 + b2;
+                let plain = sum.gt(zero).and(sum.lt(inf));
+                let heuristic = F8::select(plain, a2 / sum, F8::select(a.ne(inf), zero, one));
+                F8::select(in_front, heuristic, one)
+            }
+            None => one,
+        };
+        let scale = z.abs() * weight / one;
+        // The shadow ray, from the lifted point where there is one.
+        let error = v3(&wave.error, i);
+        let lift = v3(&wave.lift, i);
+        let from = each3!(|k| F8::select(lifted, p[k] + lift[k], p[k]));
+        let from_error = each3!(|k| F8::select(
+            lifted,
+            error[k] + (p[k].abs() + lift[k].abs()) * g1,
+            error[k]
+        ));
+        let reach = each3!(|k| p[k] + wi[k] * distance - from[k]);
+        let length = dot(reach, reach).sqrt();
+        let dir = each3!(|k| F8::select(lifted, reach[k] / length, wi[k]));
+        let far = F8::select(lifted, length, distance);
+        let origin = spawn(from, from_error, ng, dir);
+        let term = each3!(|k| f[k] * contribution[k] * scale);
+        store3(term, &mut wave.term[slot], i);
+        F8::select(ok, one, zero).store(&mut wave.has_ray[slot][i..]);
+        let ray = &mut wave.shadow[slot];
+        for k in 0..3 {
+            origin[k].store(&mut ray[k][i..]);
+            dir[k].store(&mut ray[3 + k][i..]);
+        }
+        zero.store(&mut ray[6][i..]);
+        (far * end).store(&mut ray[7][i..]);
+    }
+}
