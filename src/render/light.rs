@@ -307,18 +307,17 @@ impl LightSet {
         set
     }
 
-    /// The lights a vertex samples, when they are all rectangular area
-    /// lights of the file's (no point, directional, emitting triangle or
-    /// sphere, ambient light nor map): the lights a wave in arrays takes
-    /// ([`crate::render::integrator::ArrayPlan`]).
-    pub fn areas_only(&self) -> Option<&[AreaLight]> {
-        let only = self.delta.is_empty()
-            && self.emitters.is_empty()
+    /// The lights a vertex samples, when they are all point and
+    /// directional lights and rectangular area lights of the file's (no
+    /// emitting triangle or sphere, ambient light nor map): the lights a
+    /// wave in arrays takes ([`crate::render::integrator::ArrayPlan`]).
+    pub fn plain(&self) -> Option<(&[Light], &[AreaLight])> {
+        let plain = self.emitters.is_empty()
             && self.environment.is_none()
-            && !self.areas.is_empty()
             && self.areas.len() == self.each.len()
-            && self.areas.iter().all(|a| !a.triangle);
-        only.then_some(&self.areas[..])
+            && self.areas.iter().all(|a| !a.triangle)
+            && !(self.delta.is_empty() && self.areas.is_empty());
+        plain.then_some((&self.delta[..], &self.areas[..]))
     }
 
     /// Probability that one emitter sample picks emitter `i`.

@@ -389,15 +389,23 @@ fn batching_leaves_the_image_unchanged() {
 
 /// A wave in arrays (its paths' state in lists, stepped eight paths at a
 /// time: `render::integrator::ArrayWave`) gives the bits of the paths
-/// walked alone, and traces as many rays: CBbunny (smoothly shaded
-/// triangles, Lambertian walls, an area light) under MIS and light
-/// sampling, several light samples, Russian roulette, `-o 0`, direct
-/// light only, a black background and adaptive sampling, on one thread and
-/// three. Where the CPU runs AVX2 the arrays do take these frames.
+/// walked alone, and traces as many rays: smoothly shaded triangles of
+/// Lambertian and emitting materials lit by an area light (CBbunny), a
+/// point light (CBempty) and a directional one (maxplanck), under MIS and
+/// light sampling, several light samples, Russian roulette, `-o 0`,
+/// direct light only, a black background and adaptive sampling, on one
+/// thread and three. Where the CPU runs AVX2 the arrays do take these
+/// frames.
 #[test]
 fn waves_in_arrays_give_the_bits_of_paths_alone() {
-    let scene = scene_or_skip!("sky/CBbunny.dae");
-    let native = BackendConfig::NATIVE.build(&scene).expect("native builds");
+    let mut scenes = Vec::new();
+    for name in [
+        "sky/CBbunny.dae",
+        "sky/CBempty.dae",
+        "meshedit/maxplanck.dae",
+    ] {
+        scenes.push((name, scene_or_skip!(name)));
+    }
     let base = RenderSettings {
         width: 40,
         height: 30,
@@ -448,26 +456,27 @@ fn waves_in_arrays_give_the_bits_of_paths_alone() {
             })
         },
     ];
-    for (v, settings) in variants.iter().enumerate() {
-        if Avx2::detect().is_some() {
-            let Shading::Path(_) = settings.shading else {
-                unreachable!("path-traced variants")
-            };
-            let integrator = Integrator::new(&scene, &native, settings.shading);
-            assert!(
-                integrator.array_plan(Avx2::detect()).is_some(),
-                "variant {v}: the arrays refused CBbunny"
-            );
-        }
-        let alone = frame(&scene, &native, settings, Batching::Alone, 1);
-        for threads in [1, 3] {
-            let waves = frame(&scene, &native, settings, Batching::Waves, threads);
-            let what = format!("variant {v}, {threads} threads");
-            assert!(alone.0 == waves.0, "{what}: sums differ");
-            assert_eq!(alone.1, waves.1, "{what}: samples per pixel differ");
-            assert_eq!(alone.2, waves.2, "{what}: rays traced differ");
+    for (name, scene) in &scenes {
+        let native = BackendConfig::NATIVE.build(scene).expect("native builds");
+        for (v, settings) in variants.iter().enumerate() {
+            if Avx2::detect().is_some() {
+                let integrator = Integrator::new(scene, &native, settings.shading);
+                assert!(
+                    integrator.array_plan(Avx2::detect()).is_some(),
+                    "{name}, variant {v}: the arrays refused it"
+                );
+            }
+            let alone = frame(scene, &native, settings, Batching::Alone, 1);
+            for threads in [1, 3] {
+                let waves = frame(scene, &native, settings, Batching::Waves, threads);
+                let what = format!("{name}, variant {v}, {threads} threads");
+                assert!(alone.0 == waves.0, "{what}: sums differ");
+                assert_eq!(alone.1, waves.1, "{what}: samples per pixel differ");
+                assert_eq!(alone.2, waves.2, "{what}: rays traced differ");
+            }
         }
     }
+    let scene = &scenes[0].1;
     // What the arrays do not take goes through the paths' states: the
     // hemisphere estimator, normals, and a scene with a glossy cube.
     let refused = |scene: &Scene, shading: Shading| {
@@ -480,8 +489,8 @@ fn waves_in_arrays_give_the_bits_of_paths_alone() {
         estimator: DirectEstimator::Hemisphere,
         ..PathSettings::default()
     });
-    assert!(refused(&scene, hemisphere));
-    assert!(refused(&scene, Shading::Normals));
+    assert!(refused(scene, hemisphere));
+    assert!(refused(scene, Shading::Normals));
     let path = Shading::Path(PathSettings::default());
     assert!(refused(&crate::common::default_scene(), path));
 }

@@ -30,7 +30,7 @@ use crate::render::f8::F8;
 use crate::render::light::Facing;
 use crate::render::material::emitted;
 use crate::render::wave::{held, WaveTimes};
-use crate::scene::{AreaLight, Material, NormalMode};
+use crate::scene::{AreaLight, Light, Material, NormalMode};
 use crate::{each3, map3};
 
 /// Lanes of a pass.
@@ -42,9 +42,10 @@ const MOST_SAMPLES: usize = 8;
 /// Proof that a wave may run in arrays: the CPU runs AVX2, the scene is
 /// smooth-shaded triangles of Lambertian and emitting materials, every
 /// light a vertex samples is a rectangular area light of the file's
-/// ([`crate::render::light::LightSet::areas_only`]), light sampling or MIS
+/// ([`crate::render::light::LightSet::plain`]), light sampling or MIS
 /// estimates them, and a vertex takes at most [`MOST_SAMPLES`] samples.
 pub struct ArrayPlan<'l> {
+    delta: &'l [Light],
     areas: &'l [AreaLight],
     s: PathSettings,
     avx2: Avx2,
@@ -57,7 +58,10 @@ impl<A: Accel> Integrator<'_, A> {
         let (Shading::Path(s), Some(avx2)) = (self.shading, avx2) else {
             return None;
         };
-        let areas = self.lights.areas_only()?;
+        let (delta, areas) = self.lights.plain()?;
+        let delta_kinds = delta
+            .iter()
+            .all(|l| matches!(l, Light::Point { .. } | Light::Directional { .. }));
         let estimated = matches!(
             s.estimator,
             DirectEstimator::LightSampling | DirectEstimator::Mis
@@ -68,12 +72,61 @@ impl<A: Accel> Integrator<'_, A> {
             .iter()
             .all(|m| matches!(m, Material::Lambertian { .. } | Material::Emission { .. }));
         let takes = estimated
+            && delta_kinds
             && materials
             && self.scene.spheres.is_empty()
             && self.scene.normal_mode == NormalMode::Smooth
-            && areas.len() * s.light_samples.max(1) as usize <= MOST_SAMPLES;
-        takes.then_some(ArrayPlan { areas, s, avx2 })
+            && delta.len() + areas.len() * s.light_samples.max(1) as usize <= MOST_SAMPLES;
+        takes.then_some(ArrayPlan {
+            delta,
+            areas,
+            s,
+            avx2,
+        })
     }
+}
+
+impl ArrayPlan<'_> {
+    /// What a vertex's direct light samples, in `Integrator::direct`'s
+    /// order: one sample of each delta light, then `-l` of each area
+    /// light; each group's terms are averaged.
+    fn groups(&self) -> impl Iterator<Item = (Source<'_>, u32)> {
+        let n = self.s.light_samples.max(1);
+        let delta = self.delta.iter().filter_map(|l| match *l {
+            Light::Point {
+                position,
+                intensity,
+            } => Some(Source::Point {
+                position,
+                intensity,
+            }),
+            Light::Directional { to_light, radiance } => {
+                Some(Source::Directional { to_light, radiance })
+            }
+            // Refused by the plan.
+            _ => None,
+        });
+        delta
+            .map(|source| (source, 1))
+            .chain(self.areas.iter().map(move |a| (Source::Area(a), n)))
+    }
+}
+
+/// A light as the light pass samples it.
+#[derive(Clone, Copy)]
+enum Source<'l> {
+    /// A rectangle, sampled uniformly by area with two numbers, weighted
+    /// against BSDF sampling under MIS.
+    Area(&'l AreaLight),
+    /// Delta lights: one sample each, no numbers drawn, no MIS weight.
+    Point {
+        position: Vec3,
+        intensity: Vec3,
+    },
+    Directional {
+        to_light: Vec3,
+        radiance: Vec3,
+    },
 }
 
 /// Three lists, one per coordinate.
@@ -430,7 +483,7 @@ impl ArrayWave {
     ) {
         let s = &plan.s;
         let padded = self.dir[0].len();
-        let slots = plan.areas.len() * s.light_samples.max(1) as usize;
+        let slots = plan.groups().map(|(_, n)| n as usize).sum();
         self.term.resize_with(slots, Default::default);
         self.has_ray.resize_with(slots, Vec::new);
         self.shadow.resize_with(slots, Default::default);
@@ -450,14 +503,16 @@ impl ArrayWave {
         }
         let (mut u, mut v) = (vec![0.0f32; padded], vec![0.0f32; padded]);
         let mut slot = 0;
-        for light in plan.areas {
-            for _ in 0..s.light_samples.max(1) {
-                for (i, stream) in self.light_stream.iter_mut().enumerate() {
-                    if let Some(stream) = stream {
-                        (u[i], v[i]) = stream.next_2d();
+        for (source, n) in plan.groups() {
+            for _ in 0..n {
+                if let Source::Area(_) = source {
+                    for (i, stream) in self.light_stream.iter_mut().enumerate() {
+                        if let Some(stream) = stream {
+                            (u[i], v[i]) = stream.next_2d();
+                        }
                     }
                 }
-                light_pass(plan, self, light, slot, &u, &v);
+                light_pass(plan, self, source, slot, &u, &v);
                 slot += 1;
             }
         }
@@ -467,7 +522,6 @@ impl ArrayWave {
     /// samples (zero where blocked or without a ray) averaged, the means
     /// summed, times the path's throughput.
     fn sum(&mut self, plan: &ArrayPlan) {
-        let n = plan.s.light_samples.max(1);
         let mut ray = 0;
         for (v, &i) in self.at.iter().enumerate() {
             if self.light_stream[v].is_none() {
@@ -476,7 +530,7 @@ impl ArrayWave {
             let k = self.live[i as usize] as usize;
             let mut sum = Vec3::ZERO;
             let mut slot = 0;
-            for _ in plan.areas {
+            for (_, n) in plan.groups() {
                 let mut group = Vec3::ZERO;
                 for _ in 0..n {
                     let term = if self.has_ray[slot][v] != 0.0 {
@@ -728,19 +782,20 @@ unsafe fn vertex_avx2(wave: &mut ArrayWave) {
 fn light_pass(
     plan: &ArrayPlan,
     wave: &mut ArrayWave,
-    light: &AreaLight,
+    source: Source,
     slot: usize,
     u: &[f32],
     v: &[f32],
 ) {
     // SAFETY: `plan.avx2` proves the CPU runs AVX2, the pass's one
     // requirement.
-    unsafe { light_avx2(&plan.s, wave, light, slot, u, v) }
+    unsafe { light_avx2(&plan.s, wave, source, slot, u, v) }
 }
 
-/// One sample of `light` at `(u, v)` from each vertex: its MIS-weighted
-/// term and shadow ray (`sample_li`, `Integrator::unoccluded`), eight
-/// vertices at a time.
+/// One sample of `source` (at `(u, v)` of the unit square for an area
+/// light) from each vertex: its term (MIS-weighted for an area light) and
+/// shadow ray (`sample_li`, `Integrator::unoccluded`), eight vertices at a
+/// time.
 ///
 /// # Safety
 /// The CPU must run AVX2.
@@ -748,43 +803,64 @@ fn light_pass(
 unsafe fn light_avx2(
     s: &PathSettings,
     wave: &mut ArrayWave,
-    light: &AreaLight,
+    source: Source,
     slot: usize,
     u: &[f32],
     v: &[f32],
 ) {
     let splat3 = |v: Vec3| [F8::splat(v.x), F8::splat(v.y), F8::splat(v.z)];
-    let (o, eu, ev) = (
-        splat3(light.origin),
-        splat3(light.edge_u),
-        splat3(light.edge_v),
-    );
-    let (normal, radiance) = (splat3(light.normal), splat3(light.radiance));
-    let area = F8::splat(light.area);
     let g1 = F8::splat(gamma(1));
     let (zero, one, inf) = (F8::splat(0.0), F8::splat(1.0), F8::splat(f32::INFINITY));
+    let yes = zero.le(zero);
     let frac_1_pi = F8::splat(std::f32::consts::FRAC_1_PI);
     let end = F8::splat(crate::geom::ray::SHADOW_END);
     // MIS's weight counts the samples a group takes: `samples * pick`.
-    let samples = (s.estimator == DirectEstimator::Mis)
-        .then(|| F8::splat(s.light_samples.max(1) as f32 * 1.0));
+    let mis = matches!(source, Source::Area(_)) && s.estimator == DirectEstimator::Mis;
+    let samples = mis.then(|| F8::splat(s.light_samples.max(1) as f32 * 1.0));
     let count = wave.at.len();
     for i in (0..wave.dir[0].len()).step_by(L) {
-        let (u, v) = (F8::load(&u[i..]), F8::load(&v[i..]));
         let p = v3(&wave.p, i);
-        // `point_at`, then `area_to_solid_angle` and `from_area_point`.
-        let to = each3!(|k| o[k] + eu[k] * u + ev[k] * v - p[k]);
-        let d2 = dot(to, to);
-        let distance = d2.sqrt();
-        let cos_light = -dot(to, normal) / distance;
-        let pdf = d2 / (cos_light * area);
-        let some = d2
-            .ne(zero)
-            .and(cos_light.gt(zero))
-            .and(pdf.gt(zero))
-            .and(pdf.lt(inf));
-        let wi = map3!(to, |x| x / distance);
-        let contribution = map3!(radiance, |x| x / pdf);
+        // The sample: direction, distance, radiance over density, the
+        // density, and whether there is one.
+        let (wi, distance, contribution, pdf, some) = match source {
+            Source::Area(light) => {
+                let (u, v) = (F8::load(&u[i..]), F8::load(&v[i..]));
+                let (o, eu, ev) = (
+                    splat3(light.origin),
+                    splat3(light.edge_u),
+                    splat3(light.edge_v),
+                );
+                // `point_at`, then `area_to_solid_angle` and
+                // `from_area_point`.
+                let to = each3!(|k| o[k] + eu[k] * u + ev[k] * v - p[k]);
+                let d2 = dot(to, to);
+                let distance = d2.sqrt();
+                let cos_light = -dot(to, splat3(light.normal)) / distance;
+                let pdf = d2 / (cos_light * F8::splat(light.area));
+                let some = d2
+                    .ne(zero)
+                    .and(cos_light.gt(zero))
+                    .and(pdf.gt(zero))
+                    .and(pdf.lt(inf));
+                let wi = map3!(to, |x| x / distance);
+                let contribution = map3!(splat3(light.radiance), |x| x / pdf);
+                (wi, distance, contribution, pdf, some)
+            }
+            Source::Point {
+                position,
+                intensity,
+            } => {
+                let to = each3!(|k| F8::splat(position[k]) - p[k]);
+                let d2 = dot(to, to);
+                let distance = d2.sqrt();
+                let wi = map3!(to, |x| x / distance);
+                let contribution = map3!(splat3(intensity), |x| x / d2);
+                (wi, distance, contribution, inf, d2.ne(zero))
+            }
+            Source::Directional { to_light, radiance } => {
+                (splat3(to_light), inf, splat3(radiance), inf, yes)
+            }
+        };
         // `unoccluded`: in front of the shading normal, and of the facet
         // unless the point is lifted; the BSDF (Lambertian) not zero.
         let ng = v3(&wave.ng, i);
@@ -819,6 +895,9 @@ unsafe fn light_avx2(
         let error = v3(&wave.error, i);
         let lift = v3(&wave.lift, i);
         let from = each3!(|k| F8::select(lifted, p[k] + lift[k], p[k]));
+        // From a lifted point towards a point (not a direction), the ray
+        // aims at the sample's point.
+        let aimed = lifted.and(distance.lt(inf));
         let from_error = each3!(|k| F8::select(
             lifted,
             error[k] + (p[k].abs() + lift[k].abs()) * g1,
@@ -826,8 +905,8 @@ unsafe fn light_avx2(
         ));
         let reach = each3!(|k| p[k] + wi[k] * distance - from[k]);
         let length = dot(reach, reach).sqrt();
-        let dir = each3!(|k| F8::select(lifted, reach[k] / length, wi[k]));
-        let far = F8::select(lifted, length, distance);
+        let dir = each3!(|k| F8::select(aimed, reach[k] / length, wi[k]));
+        let far = F8::select(aimed, length, distance);
         let origin = spawn(from, from_error, ng, dir);
         let term = each3!(|k| f[k] * contribution[k] * scale);
         store3(term, &mut wave.term[slot], i);
