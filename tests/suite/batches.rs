@@ -389,9 +389,10 @@ fn batching_leaves_the_image_unchanged() {
 
 /// A wave in arrays (its paths' state in lists, stepped eight paths at a
 /// time: `render::integrator::ArrayWave`) gives the bits of the paths
-/// walked alone, and traces as many rays: smoothly shaded triangles of
-/// Lambertian and emitting materials lit by an area light (CBbunny), a
-/// point light (CBempty) and a directional one (maxplanck), under MIS and
+/// walked alone, and traces as many rays: smoothly shaded triangles and
+/// spheres of Lambertian and emitting materials lit by an area light
+/// (CBbunny, CBspheres_lambertian), a point light (CBempty) and a
+/// directional one (maxplanck), under MIS and
 /// light sampling, several light samples, Russian roulette, `-o 0`,
 /// direct light only, a black background and adaptive sampling, on one
 /// thread and three. Where the CPU runs AVX2 the arrays do take these

@@ -8,14 +8,17 @@
 //! frame, the point lifted onto the smooth surface) in lanes; one light
 //! stream split off each path; every light sample with its MIS-weighted
 //! term and shadow ray in lanes; the shadow rays in one batch; each path's
-//! direct light summed as [`super::ShadowTape::sum`] sums it; and the BSDF
-//! sample, path by path, as [`Integrator::leave`] takes it. So the image
-//! has the bits of the paths walked alone (tested).
+//! direct light summed as [`super::ShadowTape::sum`] sums it; Russian
+//! roulette and the BSDF's numbers path by path, its direction and ray in
+//! lanes, as [`Integrator::leave`] takes them. Every operation is the
+//! scalar code's, in its order (sine and cosine are libm's, lane by lane),
+//! so the image has the bits of the paths walked alone (tested).
 //!
-//! It takes the scenes it was measured on ([`ArrayPlan`]): smooth-shaded
-//! triangles, Lambertian and emitting materials, rectangular area lights
-//! estimated by light sampling or MIS. Every other scene goes through the
-//! `PathState` wave.
+//! It takes the scenes of the measurement and their kin ([`ArrayPlan`]):
+//! smooth shading, Lambertian and emitting materials, point, directional
+//! and rectangular area lights under light sampling or MIS. A sphere's
+//! surface point is the scalar function's. Every other scene goes through
+//! the `PathState` wave.
 
 use glam::Vec3;
 
@@ -40,10 +43,11 @@ const L: usize = 8;
 const MOST_SAMPLES: usize = 8;
 
 /// Proof that a wave may run in arrays: the CPU runs AVX2, the scene is
-/// smooth-shaded triangles of Lambertian and emitting materials, every
-/// light a vertex samples is a rectangular area light of the file's
-/// ([`crate::render::light::LightSet::plain`]), light sampling or MIS
-/// estimates them, and a vertex takes at most [`MOST_SAMPLES`] samples.
+/// smoothly shaded, of Lambertian and emitting materials, every light a
+/// vertex samples is a point, directional or rectangular area light of
+/// the file's ([`crate::render::light::LightSet::plain`]), light sampling
+/// or MIS estimates them, and a vertex takes at most [`MOST_SAMPLES`]
+/// samples.
 pub struct ArrayPlan<'l> {
     delta: &'l [Light],
     areas: &'l [AreaLight],
@@ -74,7 +78,6 @@ impl<A: Accel> Integrator<'_, A> {
         let takes = estimated
             && delta_kinds
             && materials
-            && self.scene.spheres.is_empty()
             && self.scene.normal_mode == NormalMode::Smooth
             && delta.len() + areas.len() * s.light_samples.max(1) as usize <= MOST_SAMPLES;
         takes.then_some(ArrayPlan {
@@ -161,8 +164,10 @@ pub struct ArrayWave {
     t: Lists,
     lift: Lists,
     lifted: Vec<f32>,
-    /// Whether a vertex's normals took the plain case in lanes (a mask).
+    /// Whether a vertex's normals took the plain case in lanes (a mask),
+    /// and whether it is on a sphere.
     plain: Vec<f32>,
+    sphere: Vec<bool>,
     /// Each vertex's light stream, if it takes direct light.
     light_stream: Vec<Option<Rng>>,
     /// Each light sample of every vertex: its term, whether it has a
@@ -241,6 +246,7 @@ impl ArrayWave {
             + held(&self.albedo)
             + held(&self.lifted)
             + held(&self.plain)
+            + held(&self.sphere)
             + held(&self.light_stream)
             + held(&self.shadow_rays)
             + held(&self.blocked)
@@ -427,10 +433,21 @@ impl ArrayWave {
         }
         self.plain.clear();
         self.plain.resize(padded, 0.0);
+        self.sphere.clear();
+        self.sphere.resize(padded, false);
         for v in 0..padded {
             let i = self.at[v.min(count - 1)] as usize;
             let (ray, hit) = (&self.rays[i], self.hits[i].expect("a vertex's hit"));
             let p = hit.prim as usize;
+            // A sphere's point is the scalar function's (below), and it
+            // has no lift: its lanes keep zeros meanwhile.
+            self.sphere[v] = p >= scene.mesh.len();
+            if self.sphere[v] {
+                for a in 0..3 {
+                    self.dir[a][v] = ray.dir[a];
+                }
+                continue;
+            }
             let corners = scene.mesh.corners(p);
             let normals = scene.corner_normals(p);
             let w = crate::scene::barycentric_weights(&hit);
@@ -444,9 +461,10 @@ impl ArrayWave {
             }
         }
         surface_pass(plan.avx2, self);
-        // Lanes whose normals left the plain case: the scalar function.
+        // Spheres, and lanes whose normals left the plain case: the
+        // scalar function.
         for v in 0..count {
-            if self.plain[v] != 0.0 {
+            if self.plain[v] != 0.0 && !self.sphere[v] {
                 continue;
             }
             let i = self.at[v] as usize;
@@ -471,6 +489,15 @@ impl ArrayWave {
         self.lifted.clear();
         self.lifted.resize(padded, 0.0);
         vertex_pass(plan.avx2, self);
+        // `Scene::shadow_lift`: none on a sphere.
+        for v in 0..self.at.len() {
+            if self.sphere[v] {
+                self.lifted[v] = 0.0;
+                for a in 0..3 {
+                    self.lift[a][v] = 0.0;
+                }
+            }
+        }
     }
 
     /// Each vertex's light stream, and its light samples' terms and
