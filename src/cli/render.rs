@@ -17,7 +17,7 @@ use crate::accel::{Accel, BackendConfig};
 use crate::choice::Choice;
 use crate::render::camera::CameraMode;
 use crate::render::film::{check_writable, rate_path, write_files, Exposure, Film, ToneMap};
-use crate::render::integrator::{Background, BounceView, DirectEstimator};
+use crate::render::integrator::{arrays_take, Background, BounceView, DirectEstimator};
 use crate::render::{render, Batching, RenderOutput, RenderSettings};
 use crate::scene::environment::{EnvSampling, Environment};
 use crate::scene::{NormalMode, Scene};
@@ -94,10 +94,18 @@ pub struct RenderArgs {
     pub no_packets: bool,
     /// Advance the paths in waves, every bounce's rays and shadow rays
     /// in batch queries, instead of batching camera rays only and walking
-    /// each path alone from its first hit (the image is the same; slower
-    /// where measured, docs/design.md).
+    /// each path alone from its first hit (the image is the same). The
+    /// default where a wave in arrays takes the scene (smooth shading,
+    /// Lambertian and emitting materials, point, directional and
+    /// rectangular lights, light sampling or MIS, an AVX2 CPU): faster
+    /// there on every backend measured; elsewhere slower (docs/design.md).
     #[arg(long, conflicts_with = "no_packets")]
     pub waves: bool,
+    /// Batch camera rays only and walk each path alone from its first
+    /// hit, even where the default would run waves (the image is the
+    /// same; for comparing the two).
+    #[arg(long, conflicts_with_all = ["no_packets", "waves"])]
+    pub no_waves: bool,
     /// Output image: .png (tone-mapped) or .exr (raw radiance).
     #[arg(short = 'f')]
     pub output: Option<PathBuf>,
@@ -452,6 +460,19 @@ pub fn render_with(args: &RenderArgs, settings: &RenderSettings) -> Result<Rende
         scene.primitive_count(),
         start.elapsed().as_secs_f64() * 1e3
     );
+    // The default mode runs waves where a wave in arrays takes the scene
+    // (the fastest frames there on every backend, docs/design.md).
+    let waves;
+    let by_default = !(args.no_packets || args.waves || args.no_waves);
+    let settings = if by_default && arrays_take(&scene, settings.shading) {
+        waves = RenderSettings {
+            batching: Batching::Waves,
+            ..settings.clone()
+        };
+        &waves
+    } else {
+        settings
+    };
 
     if let Some(path) = &args.save_camera {
         let text = settings.camera_for(&scene).to_course().text();

@@ -222,6 +222,53 @@ fn same_seed_same_bytes_for_any_thread_count() {
     );
 }
 
+/// `hybrid render` runs waves by default where a wave in arrays takes the
+/// scene (CBbunny, on a CPU with AVX2), camera batches where it does not
+/// (the default scene's glossy cube) and with `--no-waves`: the same
+/// bytes either way.
+#[test]
+fn the_default_mode_runs_waves_where_arrays_take_the_scene() {
+    let Some(scene) = common::shared("sky/CBbunny.dae") else {
+        return;
+    };
+    let dir = common::scratch("cli-default-waves");
+    let scene = scene.to_str().unwrap();
+    let waves = "rays: every bounce's rays of a wave of paths together";
+    let camera = "rays: camera rays together";
+    let arrays = hybrid::accel::native::cpu::Avx2::detect().is_some();
+    let mut images = Vec::new();
+    for (extra, expected) in [
+        (None, if arrays { waves } else { camera }),
+        (Some("--no-waves"), camera),
+    ] {
+        let name = format!(
+            "{}.exr",
+            extra.map_or("default", |e| e.trim_start_matches('-'))
+        );
+        let mut args = vec!["render", scene, "-r", "24", "18", "-s", "4", "-m", "4"];
+        args.extend(extra);
+        args.extend(["-f", &name]);
+        let o = hybrid(&args, &dir);
+        assert!(o.status.success(), "{}", text(&o));
+        let out = text(&o);
+        assert!(
+            out.contains(expected),
+            "{extra:?}: not {expected:?} in {out}"
+        );
+        images.push(std::fs::read(dir.join(&name)).unwrap());
+    }
+    assert!(
+        images[0] == images[1],
+        "the two modes wrote different bytes"
+    );
+    let o = hybrid(
+        &["render", "-r", "24", "18", "-s", "2", "-f", "d.png"],
+        &dir,
+    );
+    assert!(o.status.success(), "{}", text(&o));
+    assert!(text(&o).contains(camera), "the default scene: {}", text(&o));
+}
+
 #[test]
 fn parity_command_prints_its_tables_and_passes_on_a_shared_scene() {
     let Some(scene) = common::shared("sky/CBspheres_lambertian.dae") else {

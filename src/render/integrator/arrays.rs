@@ -31,9 +31,10 @@ use crate::geom::sampling::{cosine_hemisphere, Rng};
 use crate::geom::{gamma, Hit, Ray};
 use crate::render::f8::F8;
 use crate::render::light::Facing;
+use crate::render::light::LightSet;
 use crate::render::material::emitted;
 use crate::render::wave::{held, WaveTimes};
-use crate::scene::{AreaLight, Light, Material, NormalMode};
+use crate::scene::{AreaLight, Light, Material, NormalMode, Scene};
 use crate::{each3, map3};
 
 /// Lanes of a pass.
@@ -59,34 +60,48 @@ impl<A: Accel> Integrator<'_, A> {
     /// The plan of a wave in arrays, if this integrator's scene and
     /// settings are ones it takes.
     pub fn array_plan(&self, avx2: Option<Avx2>) -> Option<ArrayPlan<'_>> {
-        let (Shading::Path(s), Some(avx2)) = (self.shading, avx2) else {
-            return None;
-        };
-        let (delta, areas) = self.lights.plain()?;
-        let delta_kinds = delta
-            .iter()
-            .all(|l| matches!(l, Light::Point { .. } | Light::Directional { .. }));
-        let estimated = matches!(
-            s.estimator,
-            DirectEstimator::LightSampling | DirectEstimator::Mis
-        );
-        let materials = self
-            .scene
-            .materials
-            .iter()
-            .all(|m| matches!(m, Material::Lambertian { .. } | Material::Emission { .. }));
-        let takes = estimated
-            && delta_kinds
-            && materials
-            && self.scene.normal_mode == NormalMode::Smooth
-            && delta.len() + areas.len() * s.light_samples.max(1) as usize <= MOST_SAMPLES;
-        takes.then_some(ArrayPlan {
-            delta,
-            areas,
-            s,
-            avx2,
-        })
+        plan(self.scene, &self.lights, self.shading, avx2)
     }
+}
+
+/// Whether a wave in arrays takes `scene` shaded as `shading` on this CPU:
+/// where the renderer's default mode runs waves (`hybrid render`).
+pub fn arrays_take(scene: &Scene, shading: Shading) -> bool {
+    plan(scene, &LightSet::new(scene), shading, Avx2::detect()).is_some()
+}
+
+fn plan<'l>(
+    scene: &Scene,
+    lights: &'l LightSet,
+    shading: Shading,
+    avx2: Option<Avx2>,
+) -> Option<ArrayPlan<'l>> {
+    let (Shading::Path(s), Some(avx2)) = (shading, avx2) else {
+        return None;
+    };
+    let (delta, areas) = lights.plain()?;
+    let delta_kinds = delta
+        .iter()
+        .all(|l| matches!(l, Light::Point { .. } | Light::Directional { .. }));
+    let estimated = matches!(
+        s.estimator,
+        DirectEstimator::LightSampling | DirectEstimator::Mis
+    );
+    let materials = scene
+        .materials
+        .iter()
+        .all(|m| matches!(m, Material::Lambertian { .. } | Material::Emission { .. }));
+    let takes = estimated
+        && delta_kinds
+        && materials
+        && scene.normal_mode == NormalMode::Smooth
+        && delta.len() + areas.len() * s.light_samples.max(1) as usize <= MOST_SAMPLES;
+    takes.then_some(ArrayPlan {
+        delta,
+        areas,
+        s,
+        avx2,
+    })
 }
 
 impl ArrayPlan<'_> {

@@ -30,7 +30,7 @@ mod direct;
 mod paths;
 mod shadows;
 
-pub use self::arrays::{ArrayPlan, ArrayWave};
+pub use self::arrays::{arrays_take, ArrayPlan, ArrayWave};
 use self::paths::Walk;
 pub use self::paths::{PathState, Paused};
 pub use self::shadows::ShadowTape;
