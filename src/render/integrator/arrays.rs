@@ -22,9 +22,7 @@
 
 use glam::Vec3;
 
-use super::{
-    power_heuristic, Background, DirectEstimator, Integrator, PathSettings, Previous, Shading,
-};
+use super::{Background, DirectEstimator, Integrator, PathSettings, Previous, Shading};
 use crate::accel::native::cpu::Avx2;
 use crate::accel::{Accel, Coherence, TraceCounters};
 use crate::geom::sampling::{cosine_hemisphere, Rng};
@@ -32,7 +30,6 @@ use crate::geom::{gamma, Hit, Ray};
 use crate::render::f8::F8;
 use crate::render::light::Facing;
 use crate::render::light::LightSet;
-use crate::render::material::emitted;
 use crate::render::wave::{held, WaveTimes};
 use crate::scene::{AreaLight, Light, Material, NormalMode, Scene};
 use crate::{each3, map3};
@@ -400,23 +397,9 @@ impl ArrayWave {
             let m = &scene.materials[scene.material_of(hit.prim) as usize];
             if s.counts(depth) && m.emission() != Vec3::ZERO {
                 let sp = scene.surface_point(&ray, &hit);
-                let le = emitted(m, (-ray.dir).dot(sp.geometric_normal));
-                if le != Vec3::ZERO {
-                    let prev = &self.prev[k];
-                    if prev.bsdf_pdf == 0.0 {
-                        self.total[k] += self.beta[k] * le;
-                    } else if s.estimator == DirectEstimator::Mis {
-                        let light = integrator.light_pdf(
-                            s,
-                            prev,
-                            hit.prim,
-                            sp.position,
-                            sp.geometric_normal,
-                            ray.dir,
-                        );
-                        self.total[k] += self.beta[k] * le * power_heuristic(prev.bsdf_pdf, light);
-                    }
-                }
+                let (beta, prev) = (self.beta[k], &self.prev[k]);
+                self.total[k] =
+                    integrator.with_emission(self.total[k], beta, s, prev, m, &hit, &sp, ray.dir);
             }
             // An emitter's vertex adds nothing more: its light samples
             // and BSDF give zero.

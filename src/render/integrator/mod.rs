@@ -313,6 +313,37 @@ impl<'a, A: Accel> Integrator<'a, A> {
         le
     }
 
+    /// `total` with the emission a path of throughput `beta` sees at
+    /// `hit` (surface point `sp`, material `m`) along `dir` from `prev`:
+    /// all of it after the camera or a specular event; under MIS, weighted
+    /// against light sampling; otherwise none, light sampling has counted
+    /// it.
+    #[allow(clippy::too_many_arguments)]
+    #[inline]
+    fn with_emission(
+        &self,
+        total: Vec3,
+        beta: Vec3,
+        s: &PathSettings,
+        prev: &Previous,
+        m: &Material,
+        hit: &Hit,
+        sp: &SurfacePoint,
+        dir: Vec3,
+    ) -> Vec3 {
+        let le = emitted(m, (-dir).dot(sp.geometric_normal));
+        if le == Vec3::ZERO {
+            total
+        } else if prev.bsdf_pdf == 0.0 {
+            total + beta * le
+        } else if s.estimator == DirectEstimator::Mis {
+            let light = self.light_pdf(s, prev, hit.prim, sp.position, sp.geometric_normal, dir);
+            total + beta * le * power_heuristic(prev.bsdf_pdf, light)
+        } else {
+            total
+        }
+    }
+
     /// The path along a camera ray whose closest hit is `first`.
     fn path(
         &self,
@@ -352,22 +383,7 @@ impl<'a, A: Accel> Integrator<'a, A> {
         let m = &self.scene.materials[sp.material as usize];
         let wo = -ray.dir;
         if s.counts(depth) {
-            let le = emitted(m, wo.dot(sp.geometric_normal));
-            if le != Vec3::ZERO {
-                if prev.bsdf_pdf == 0.0 {
-                    walk.total += walk.beta * le;
-                } else if s.estimator == DirectEstimator::Mis {
-                    let light = self.light_pdf(
-                        s,
-                        prev,
-                        hit.prim,
-                        sp.position,
-                        sp.geometric_normal,
-                        ray.dir,
-                    );
-                    walk.total += walk.beta * le * power_heuristic(prev.bsdf_pdf, light);
-                }
-            }
+            walk.total = self.with_emission(walk.total, walk.beta, s, prev, m, &hit, &sp, ray.dir);
         }
         if depth >= s.last_bounce() {
             return None;
