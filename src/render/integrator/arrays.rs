@@ -156,8 +156,10 @@ pub struct ArrayWave {
     depth: Vec<u32>,
     prev: Vec<Previous>,
     ray: Vec<Ray>,
-    /// The paths with a ray this bounce, and their rays and hits.
+    /// The paths with a ray this bounce, and their rays and hits; the
+    /// next bounce's, as they are found.
     live: Vec<u32>,
+    next_live: Vec<u32>,
     rays: Vec<Ray>,
     hits: Vec<Option<Hit>>,
     /// The paths at a Lambertian vertex this bounce (index: the vertex),
@@ -189,7 +191,8 @@ pub struct ArrayWave {
     shadow: Vec<[Vec<f32>; 8]>,
     shadow_rays: Vec<Ray>,
     blocked: Vec<bool>,
-    /// The BSDF sample's numbers and density, which paths go on (a
+    /// The numbers of an area light's sample (in the light pass) and of
+    /// the BSDF's with its density (when leaving), which paths go on (a
     /// mask), and their next rays.
     draws: Lists,
     going: Vec<f32>,
@@ -252,6 +255,7 @@ impl ArrayWave {
             + held(&self.prev)
             + held(&self.ray)
             + held(&self.live)
+            + held(&self.next_live)
             + held(&self.rays)
             + held(&self.hits)
             + held(&self.at)
@@ -526,18 +530,19 @@ impl ArrayWave {
             self.light_stream
                 .push(s.counts(self.depth[k] + 1).then_some(light_stream));
         }
-        let (mut u, mut v) = (vec![0.0f32; padded], vec![0.0f32; padded]);
+        // An area light's two numbers per vertex, in `draws`.
+        zeros(&mut self.draws, padded);
         let mut slot = 0;
         for (source, n) in plan.groups() {
             for _ in 0..n {
                 if let Source::Area(_) = source {
                     for (i, stream) in self.light_stream.iter_mut().enumerate() {
                         if let Some(stream) = stream {
-                            (u[i], v[i]) = stream.next_2d();
+                            (self.draws[0][i], self.draws[1][i]) = stream.next_2d();
                         }
                     }
                 }
-                light_pass(plan, self, source, slot, &u, &v);
+                light_pass(plan, self, source, slot);
                 slot += 1;
             }
         }
@@ -604,7 +609,7 @@ impl ArrayWave {
         }
         zeros(&mut self.next, padded);
         bsdf_pass(plan.avx2, self);
-        let mut next = Vec::with_capacity(self.at.len());
+        self.next_live.clear();
         for (v, &i) in self.at.iter().enumerate() {
             if self.going[v] == 0.0 {
                 continue;
@@ -630,9 +635,9 @@ impl ArrayWave {
                 t_max: f32::INFINITY,
             };
             self.depth[k] += 1;
-            next.push(k as u32);
+            self.next_live.push(k as u32);
         }
-        self.live = next;
+        std::mem::swap(&mut self.live, &mut self.next_live);
     }
 }
 
@@ -804,35 +809,21 @@ unsafe fn vertex_avx2(wave: &mut ArrayWave) {
 }
 
 /// The light pass behind its proof of AVX2.
-fn light_pass(
-    plan: &ArrayPlan,
-    wave: &mut ArrayWave,
-    source: Source,
-    slot: usize,
-    u: &[f32],
-    v: &[f32],
-) {
+fn light_pass(plan: &ArrayPlan, wave: &mut ArrayWave, source: Source, slot: usize) {
     // SAFETY: `plan.avx2` proves the CPU runs AVX2, the pass's one
     // requirement.
-    unsafe { light_avx2(&plan.s, wave, source, slot, u, v) }
+    unsafe { light_avx2(&plan.s, wave, source, slot) }
 }
 
-/// One sample of `source` (at `(u, v)` of the unit square for an area
-/// light) from each vertex: its term (MIS-weighted for an area light) and
+/// One sample of `source` (at `draws[0..2]` of the unit square for an
+/// area light) from each vertex: its term (MIS-weighted for an area light) and
 /// shadow ray (`sample_li`, `Integrator::unoccluded`), eight vertices at a
 /// time.
 ///
 /// # Safety
 /// The CPU must run AVX2.
 #[target_feature(enable = "avx2")]
-unsafe fn light_avx2(
-    s: &PathSettings,
-    wave: &mut ArrayWave,
-    source: Source,
-    slot: usize,
-    u: &[f32],
-    v: &[f32],
-) {
+unsafe fn light_avx2(s: &PathSettings, wave: &mut ArrayWave, source: Source, slot: usize) {
     let splat3 = |v: Vec3| [F8::splat(v.x), F8::splat(v.y), F8::splat(v.z)];
     let g1 = F8::splat(gamma(1));
     let (zero, one, inf) = (F8::splat(0.0), F8::splat(1.0), F8::splat(f32::INFINITY));
@@ -849,7 +840,7 @@ unsafe fn light_avx2(
         // density, and whether there is one.
         let (wi, distance, contribution, pdf, some) = match source {
             Source::Area(light) => {
-                let (u, v) = (F8::load(&u[i..]), F8::load(&v[i..]));
+                let (u, v) = (F8::load(&wave.draws[0][i..]), F8::load(&wave.draws[1][i..]));
                 let (o, eu, ev) = (
                     splat3(light.origin),
                     splat3(light.edge_u),
