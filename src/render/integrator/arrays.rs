@@ -335,8 +335,8 @@ impl ArrayWave {
         self.hits.extend_from_slice(first);
         loop {
             self.arrive(integrator, plan);
-            self.vertices(integrator, plan);
-            self.light(integrator, plan, streams);
+            self.vertices(plan);
+            self.light(plan, streams);
             lap(&mut times.paths);
             self.shadow_rays.clear();
             for (i, stream) in self.light_stream.iter().enumerate() {
@@ -483,7 +483,7 @@ impl ArrayWave {
     /// Each vertex's facing, shading frame and terminator lift, in lanes
     /// (the operations of `Integrator::arrive`, `Frame::new` and
     /// `Scene::shadow_lift`).
-    fn vertices<A: Accel>(&mut self, _integrator: &Integrator<A>, plan: &ArrayPlan) {
+    fn vertices(&mut self, plan: &ArrayPlan) {
         let padded = self.dir[0].len();
         for lists in [&mut self.s, &mut self.t, &mut self.lift] {
             zeros(lists, padded);
@@ -504,12 +504,7 @@ impl ArrayWave {
 
     /// Each vertex's light stream, and its light samples' terms and
     /// shadow rays, in lanes (`Integrator::direct` for area lights).
-    fn light<A: Accel>(
-        &mut self,
-        _integrator: &Integrator<A>,
-        plan: &ArrayPlan,
-        streams: &mut [Rng],
-    ) {
+    fn light(&mut self, plan: &ArrayPlan, streams: &mut [Rng]) {
         let s = &plan.s;
         let padded = self.dir[0].len();
         let slots = plan.groups().map(|(_, n)| n as usize).sum();
