@@ -18,7 +18,7 @@ use hybrid::parity::rays::{
 };
 use hybrid::render::camera::ThinLens;
 use hybrid::render::integrator::{
-    Background, BounceView, DirectEstimator, Integrator, PathSettings, Shading,
+    arrays_take, Background, BounceView, DirectEstimator, Integrator, PathSettings, Shading,
 };
 use hybrid::render::{render, Adaptive, Batching, RenderSettings, Silent};
 use hybrid::scene::Scene;
@@ -391,22 +391,32 @@ fn batching_leaves_the_image_unchanged() {
 /// time: `render::integrator::ArrayWave`) gives the bits of the paths
 /// walked alone, and traces as many rays: smoothly shaded triangles and
 /// spheres of Lambertian and emitting materials lit by an area light
-/// (CBbunny, CBspheres_lambertian), a point light (CBempty) and a
-/// directional one (maxplanck), under MIS and
-/// light sampling, several light samples, Russian roulette, `-o 0`,
-/// direct light only, a black background and adaptive sampling, on one
-/// thread and three. Where the CPU runs AVX2 the arrays do take these
-/// frames.
+/// (CBbunny), a point light (CBempty) and a directional one (maxplanck);
+/// with a mirror and a glass sphere (CBspheres) and a rough conductor
+/// (the default and glossy scenes), whose vertices the arrays step path
+/// by path among the lanes' ones; a sphere under the sky's ambient light
+/// (sphere_diffuse), all of whose vertices go path by path; under MIS,
+/// light sampling and hemisphere sampling (path by path too), several
+/// light samples, Russian roulette, `-o 0`, direct light only, a black
+/// background and adaptive sampling, on one thread and three. Where the
+/// CPU runs AVX2 the arrays do take these frames, in lanes where they
+/// should.
 #[test]
 fn waves_in_arrays_give_the_bits_of_paths_alone() {
+    // Each scene, and whether the lanes take its Lambertian vertices.
     let mut scenes = Vec::new();
     for name in [
         "sky/CBbunny.dae",
         "sky/CBempty.dae",
+        "sky/CBspheres.dae",
         "meshedit/maxplanck.dae",
+        "basic/sphere_diffuse.dae",
     ] {
-        scenes.push((name, scene_or_skip!(name)));
+        let lanes = name != "basic/sphere_diffuse.dae";
+        scenes.push((name, scene_or_skip!(name), lanes));
     }
+    scenes.push(("the default scene", crate::common::default_scene(), true));
+    scenes.push(("the glossy scene", crate::common::glossy_scene(), true));
     let base = RenderSettings {
         width: 40,
         height: 30,
@@ -456,8 +466,13 @@ fn waves_in_arrays_give_the_bits_of_paths_alone() {
                 ..PathSettings::default()
             })
         },
+        with_path(PathSettings {
+            estimator: DirectEstimator::Hemisphere,
+            max_bounces: 3,
+            ..PathSettings::default()
+        }),
     ];
-    for (name, scene) in &scenes {
+    for (name, scene, lanes) in &scenes {
         let native = BackendConfig::NATIVE.build(scene).expect("native builds");
         for (v, settings) in variants.iter().enumerate() {
             if Avx2::detect().is_some() {
@@ -465,6 +480,12 @@ fn waves_in_arrays_give_the_bits_of_paths_alone() {
                 assert!(
                     integrator.array_plan(Avx2::detect()).is_some(),
                     "{name}, variant {v}: the arrays refused it"
+                );
+                let hemisphere = v == variants.len() - 1;
+                assert_eq!(
+                    arrays_take(scene, settings.shading),
+                    *lanes && !hemisphere,
+                    "{name}, variant {v}: in lanes or not"
                 );
             }
             let alone = frame(scene, &native, settings, Batching::Alone, 1);
@@ -477,23 +498,14 @@ fn waves_in_arrays_give_the_bits_of_paths_alone() {
             }
         }
     }
+    // Normals go through the paths' states, as does everything on a CPU
+    // without AVX2.
     let scene = &scenes[0].1;
-    // What the arrays do not take goes through the paths' states: the
-    // hemisphere estimator, normals, and a scene with a glossy cube.
-    let refused = |scene: &Scene, shading: Shading| {
-        let native = BackendConfig::NATIVE.build(scene).expect("native builds");
-        Integrator::new(scene, &native, shading)
-            .array_plan(Avx2::detect())
-            .is_none()
-    };
-    let hemisphere = Shading::Path(PathSettings {
-        estimator: DirectEstimator::Hemisphere,
-        ..PathSettings::default()
-    });
-    assert!(refused(scene, hemisphere));
-    assert!(refused(scene, Shading::Normals));
-    let path = Shading::Path(PathSettings::default());
-    assert!(refused(&crate::common::default_scene(), path));
+    let native = BackendConfig::NATIVE.build(scene).expect("native builds");
+    let normals = Integrator::new(scene, &native, Shading::Normals);
+    assert!(normals.array_plan(Avx2::detect()).is_none());
+    let path = Integrator::new(scene, &native, Shading::Path(PathSettings::default()));
+    assert!(path.array_plan(None).is_none());
 }
 
 /// A wave renderer says where its time went: each phase (extension-ray

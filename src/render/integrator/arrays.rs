@@ -14,15 +14,19 @@
 //! scalar code's, in its order (sine and cosine are libm's, lane by lane),
 //! so the image has the bits of the paths walked alone (tested).
 //!
-//! It takes the scenes of the measurement and their kin ([`ArrayPlan`]):
-//! smooth shading, Lambertian and emitting materials, point, directional
-//! and rectangular area lights under light sampling or MIS. A sphere's
-//! surface point is the scalar function's. Every other scene goes through
-//! the `PathState` wave.
+//! The lanes take Lambertian vertices of smoothly shaded scenes lit by
+//! point, directional and rectangular area lights under light sampling or
+//! MIS ([`ArrayPlan`]); a sphere's surface point is the scalar function's.
+//! Every other vertex (a mirror, glass, a rough conductor, or any vertex
+//! of a scene whose lights the lanes do not sample) takes the bounce
+//! through the integrator's own steps, path by path, its shadow rays on a
+//! tape that joins the same batch query.
 
 use glam::Vec3;
 
-use super::{Background, DirectEstimator, Integrator, PathSettings, Previous, Shading};
+use super::paths::Walk;
+use super::shadows::{Deferred, Span};
+use super::{Background, DirectEstimator, Integrator, PathSettings, Previous, Shading, ShadowTape};
 use crate::accel::native::cpu::Avx2;
 use crate::accel::{Accel, Coherence, TraceCounters};
 use crate::geom::sampling::{cosine_hemisphere, Rng};
@@ -40,17 +44,26 @@ const L: usize = 8;
 /// Light samples a vertex takes at most here (lights times `-l`).
 const MOST_SAMPLES: usize = 8;
 
-/// Proof that a wave may run in arrays: the CPU runs AVX2, the scene is
-/// smoothly shaded, of Lambertian and emitting materials, every light a
-/// vertex samples is a point, directional or rectangular area light of
-/// the file's ([`crate::render::light::LightSet::plain`]), light sampling
-/// or MIS estimates them, and a vertex takes at most [`MOST_SAMPLES`]
-/// samples.
+/// Proof that a wave may run in arrays: the CPU runs AVX2 and the
+/// integrator traces paths. With it, the lights Lambertian vertices
+/// sample in lanes, where they do: the scene is smoothly shaded, every
+/// light a vertex samples is a point, directional or rectangular area
+/// light of the file's ([`crate::render::light::LightSet::plain`]), light
+/// sampling or MIS estimates them, and a vertex takes at most
+/// [`MOST_SAMPLES`] samples. Every other vertex (a mirror, glass, a rough
+/// conductor; any vertex where the lanes do not take the lights) takes
+/// the integrator's own steps, one path at a time, inside the same
+/// passes and batch queries.
 pub struct ArrayPlan<'l> {
-    delta: &'l [Light],
-    areas: &'l [AreaLight],
+    lanes: Option<Lanes<'l>>,
     s: PathSettings,
     avx2: Avx2,
+}
+
+/// The lights of a vertex in lanes.
+struct Lanes<'l> {
+    delta: &'l [Light],
+    areas: &'l [AreaLight],
 }
 
 impl<A: Accel> Integrator<'_, A> {
@@ -61,10 +74,11 @@ impl<A: Accel> Integrator<'_, A> {
     }
 }
 
-/// Whether a wave in arrays takes `scene` shaded as `shading` on this CPU:
-/// where the renderer's default mode runs waves (`hybrid render`).
+/// Whether a wave in arrays steps `scene`'s Lambertian vertices in lanes
+/// when shaded as `shading` on this CPU: where the renderer's default
+/// mode runs waves (`hybrid render`).
 pub fn arrays_take(scene: &Scene, shading: Shading) -> bool {
-    plan(scene, &LightSet::new(scene), shading, Avx2::detect()).is_some()
+    plan(scene, &LightSet::new(scene), shading, Avx2::detect()).is_some_and(|p| p.lanes.is_some())
 }
 
 fn plan<'l>(
@@ -76,38 +90,34 @@ fn plan<'l>(
     let (Shading::Path(s), Some(avx2)) = (shading, avx2) else {
         return None;
     };
-    let (delta, areas) = lights.plain()?;
-    let delta_kinds = delta
-        .iter()
-        .all(|l| matches!(l, Light::Point { .. } | Light::Directional { .. }));
-    let estimated = matches!(
-        s.estimator,
-        DirectEstimator::LightSampling | DirectEstimator::Mis
-    );
-    let materials = scene
-        .materials
-        .iter()
-        .all(|m| matches!(m, Material::Lambertian { .. } | Material::Emission { .. }));
-    let takes = estimated
-        && delta_kinds
-        && materials
-        && scene.normal_mode == NormalMode::Smooth
-        && delta.len() + areas.len() * s.light_samples.max(1) as usize <= MOST_SAMPLES;
-    takes.then_some(ArrayPlan {
-        delta,
-        areas,
-        s,
-        avx2,
-    })
+    let lanes = lights.plain().and_then(|(delta, areas)| {
+        let delta_kinds = delta
+            .iter()
+            .all(|l| matches!(l, Light::Point { .. } | Light::Directional { .. }));
+        let estimated = matches!(
+            s.estimator,
+            DirectEstimator::LightSampling | DirectEstimator::Mis
+        );
+        let takes = estimated
+            && delta_kinds
+            && scene.normal_mode == NormalMode::Smooth
+            && delta.len() + areas.len() * s.light_samples.max(1) as usize <= MOST_SAMPLES;
+        takes.then_some(Lanes { delta, areas })
+    });
+    Some(ArrayPlan { lanes, s, avx2 })
 }
 
 impl ArrayPlan<'_> {
-    /// What a vertex's direct light samples, in `Integrator::direct`'s
-    /// order: one sample of each delta light, then `-l` of each area
-    /// light; each group's terms are averaged.
+    /// What a vertex in lanes samples for its direct light, in
+    /// `Integrator::direct`'s order: one sample of each delta light, then
+    /// `-l` of each area light; each group's terms are averaged.
     fn groups(&self) -> impl Iterator<Item = (Source<'_>, u32)> {
         let n = self.s.light_samples.max(1);
-        let delta = self.delta.iter().filter_map(|l| match *l {
+        let (delta, areas) = match &self.lanes {
+            Some(l) => (l.delta, l.areas),
+            None => (&[][..], &[][..]),
+        };
+        let delta = delta.iter().filter_map(|l| match *l {
             Light::Point {
                 position,
                 intensity,
@@ -123,7 +133,7 @@ impl ArrayPlan<'_> {
         });
         delta
             .map(|source| (source, 1))
-            .chain(self.areas.iter().map(move |a| (Source::Area(a), n)))
+            .chain(areas.iter().map(move |a| (Source::Area(a), n)))
     }
 }
 
@@ -162,6 +172,11 @@ pub struct ArrayWave {
     next_live: Vec<u32>,
     rays: Vec<Ray>,
     hits: Vec<Option<Hit>>,
+    /// The paths at a vertex of another material this bounce, stepped
+    /// by the integrator's own code: their direct light's terms and
+    /// shadow rays on `tape`.
+    alone: Vec<Alone>,
+    tape: ShadowTape,
     /// The paths at a Lambertian vertex this bounce (index: the vertex),
     /// and each vertex's lists, padded to whole groups of eight.
     at: Vec<u32>,
@@ -197,6 +212,17 @@ pub struct ArrayWave {
     draws: Lists,
     going: Vec<f32>,
     next: [Vec<f32>; 6],
+}
+
+/// A path at a vertex the lanes do not take, stepped alone: its
+/// throughput before it left the vertex (its direct light's weight), its
+/// direct light on the tape, if the vertex takes any, and whether it went
+/// on.
+struct Alone {
+    path: u32,
+    beta: Vec3,
+    direct: Option<Span>,
+    goes: bool,
 }
 
 /// Clears `lists` and gives them `n` zeros each.
@@ -256,6 +282,8 @@ impl ArrayWave {
             + held(&self.ray)
             + held(&self.live)
             + held(&self.next_live)
+            + held(&self.alone)
+            + self.tape.held_bytes()
             + held(&self.rays)
             + held(&self.hits)
             + held(&self.at)
@@ -334,7 +362,7 @@ impl ArrayWave {
         self.hits.clear();
         self.hits.extend_from_slice(first);
         loop {
-            self.arrive(integrator, plan);
+            self.arrive(integrator, plan, streams, counters);
             self.vertices(plan);
             self.light(plan, streams);
             lap(&mut times.paths);
@@ -351,6 +379,8 @@ impl ArrayWave {
                     }
                 }
             }
+            let in_lanes = self.shadow_rays.len();
+            self.shadow_rays.extend_from_slice(self.tape.rays());
             self.blocked.clear();
             self.blocked.resize(self.shadow_rays.len(), false);
             integrator
@@ -358,6 +388,12 @@ impl ArrayWave {
                 .occluded_all(&self.shadow_rays, &mut self.blocked, counters);
             lap(&mut times.occluded);
             self.sum(plan);
+            for a in &self.alone {
+                if let Some(span) = &a.direct {
+                    let sum = self.tape.sum(span, &self.blocked[in_lanes..]);
+                    self.total[a.path as usize] += a.beta * sum;
+                }
+            }
             self.leave(plan, streams);
             lap(&mut times.paths);
             if self.live.is_empty() {
@@ -382,14 +418,25 @@ impl ArrayWave {
 
     /// What each live path sees at its hit, as [`Integrator::arrive`]
     /// counts it: the sky where it missed, emission where it hit a light.
-    /// The paths that scatter there (from a Lambertian vertex, below the
+    /// The paths that scatter there from a Lambertian vertex (below the
     /// last bounce) go into `at`, their vertices' hit data gathered into
-    /// the lists and their surface points computed in lanes.
-    fn arrive<A: Accel>(&mut self, integrator: &Integrator<A>, plan: &ArrayPlan) {
+    /// the lists and their surface points computed in lanes; the paths at
+    /// a vertex of another material take the whole bounce alone
+    /// ([`Self::alone`]).
+    fn arrive<A: Accel>(
+        &mut self,
+        integrator: &Integrator<A>,
+        plan: &ArrayPlan,
+        streams: &mut [Rng],
+        counters: &mut TraceCounters,
+    ) {
         let (scene, s) = (integrator.scene, &plan.s);
         self.at.clear();
         self.albedo.clear();
-        for (i, &k) in self.live.iter().enumerate() {
+        self.alone.clear();
+        self.tape.clear();
+        for i in 0..self.live.len() {
+            let k = self.live[i];
             let k = k as usize;
             let (ray, depth) = (self.rays[i], self.depth[k]);
             let Some(hit) = self.hits[i] else {
@@ -399,6 +446,11 @@ impl ArrayWave {
                 continue;
             };
             let m = &scene.materials[scene.material_of(hit.prim) as usize];
+            let in_lanes = matches!(m, Material::Lambertian { .. } | Material::Emission { .. });
+            if !in_lanes || plan.lanes.is_none() {
+                self.alone(integrator, s, k, hit, &mut streams[k], counters);
+                continue;
+            }
             if s.counts(depth) && m.emission() != Vec3::ZERO {
                 let sp = scene.surface_point(&ray, &hit);
                 let (beta, prev) = (self.beta[k], &self.prev[k]);
@@ -478,6 +530,53 @@ impl ArrayWave {
                 self.ns[a][v] = sp.shading_normal[a];
             }
         }
+    }
+
+    /// Path `k`, whose ray's closest hit is `hit` at a vertex the lanes
+    /// do not take, takes the bounce as the paths' states take it
+    /// ([`Integrator::arrive_at`], `light_at`, `go_on`), its shadow rays
+    /// on the tape: it arrives, records its direct light, and leaves at
+    /// once (leaving draws from the path's stream after the light stream
+    /// is split off, as alone); its direct light joins its total when the
+    /// shadow rays are answered.
+    fn alone<A: Accel>(
+        &mut self,
+        integrator: &Integrator<A>,
+        s: &PathSettings,
+        k: usize,
+        hit: Hit,
+        rng: &mut Rng,
+        counters: &mut TraceCounters,
+    ) {
+        let mut walk = Walk {
+            total: self.total[k],
+            beta: self.beta[k],
+            ray: self.ray[k],
+            prev: self.prev[k],
+            depth: self.depth[k],
+        };
+        let vertex = integrator.arrive(&mut walk, Some(hit), None, s);
+        self.total[k] = walk.total;
+        let Some(vertex) = vertex else {
+            return;
+        };
+        let (first_term, first_ray) = self.tape.ends();
+        let mut deferred = Deferred {
+            tape: &mut self.tape,
+            counters,
+        };
+        let lit = integrator.light(walk.depth, &vertex, s, rng, &mut deferred);
+        let direct = lit.then(|| Span::since(first_term, first_ray, &self.tape));
+        let beta = walk.beta;
+        let goes = integrator.leave(&mut walk, &vertex, s, rng);
+        (self.beta[k], self.prev[k], self.ray[k], self.depth[k]) =
+            (walk.beta, walk.prev, walk.ray, walk.depth);
+        self.alone.push(Alone {
+            path: k as u32,
+            beta,
+            direct,
+            goes,
+        });
     }
 
     /// Each vertex's facing, shading frame and terminator lift, in lanes
@@ -631,6 +730,21 @@ impl ArrayWave {
             };
             self.depth[k] += 1;
             self.next_live.push(k as u32);
+        }
+        // With the paths that went on alone, in the order of the paths
+        // (both lists are): the order the paths' states trace them in.
+        let mut alone = self.alone.iter().filter(|a| a.goes).map(|a| a.path);
+        if let Some(first) = alone.next() {
+            self.live.clear();
+            let mut lanes = self.next_live.iter().copied().peekable();
+            for k in std::iter::once(first).chain(alone) {
+                while let Some(l) = lanes.next_if(|&l| l < k) {
+                    self.live.push(l);
+                }
+                self.live.push(k);
+            }
+            self.live.extend(lanes);
+            return;
         }
         std::mem::swap(&mut self.live, &mut self.next_live);
     }
