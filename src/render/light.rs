@@ -11,7 +11,7 @@ use glam::Vec3;
 
 use crate::geom::sampling::{cosine_hemisphere, luminance, uniform_sphere, Frame, Rng};
 use crate::scene::environment::Environment;
-use crate::scene::{AreaLight, Light, Scene};
+use crate::scene::{Light, Scene};
 
 /// Incident light from one sample of a light.
 #[derive(Clone, Copy, Debug)]
@@ -215,8 +215,6 @@ pub struct LightSet {
     /// Index into `each` of the ambient light, if any.
     ambient: Option<usize>,
     pub environment: Option<Arc<Environment>>,
-    /// The area lights of `each`, in its order.
-    areas: Vec<AreaLight>,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -235,7 +233,6 @@ impl LightSet {
             by_primitive: HashMap::new(),
             ambient: None,
             environment: scene.environment.clone(),
-            areas: Vec::new(),
         };
         let mut refs = Vec::with_capacity(scene.lights.len());
         for light in &scene.lights {
@@ -299,25 +296,25 @@ impl LightSet {
         if let Some(last) = set.emitter_cdf.last_mut() {
             *last = 1.0;
         }
-        let areas = set.each.iter().filter_map(|l| match l {
-            Light::Area(a) => Some(*a),
-            _ => None,
-        });
-        set.areas = areas.collect();
         set
     }
 
-    /// The lights a vertex samples, when they are all point and
-    /// directional lights and rectangular area lights of the file's (no
-    /// emitting triangle or sphere, ambient light nor map): the lights a
-    /// wave in arrays takes ([`crate::render::integrator::ArrayPlan`]).
-    pub fn plain(&self) -> Option<(&[Light], &[AreaLight])> {
+    /// The lights a vertex samples (the delta lights, then the others in
+    /// their order), when they are all point and directional lights,
+    /// rectangular area lights of the file's and the ambient light (no
+    /// emitting triangle or sphere, nor map): the lights a wave in arrays
+    /// samples in lanes ([`crate::render::integrator::ArrayPlan`]).
+    pub fn plain(&self) -> Option<(&[Light], &[Light])> {
+        let each = self.each.iter().all(|l| match l {
+            Light::Area(a) => !a.triangle,
+            Light::Ambient { .. } => true,
+            _ => false,
+        });
         let plain = self.emitters.is_empty()
             && self.environment.is_none()
-            && self.areas.len() == self.each.len()
-            && self.areas.iter().all(|a| !a.triangle)
-            && !(self.delta.is_empty() && self.areas.is_empty());
-        plain.then_some((&self.delta[..], &self.areas[..]))
+            && each
+            && !(self.delta.is_empty() && self.each.is_empty());
+        plain.then_some((&self.delta[..], &self.each[..]))
     }
 
     /// Probability that one emitter sample picks emitter `i`.

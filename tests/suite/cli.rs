@@ -224,8 +224,8 @@ fn same_seed_same_bytes_for_any_thread_count() {
 
 /// `hybrid render` runs waves by default where a wave in arrays takes the
 /// scene (CBbunny and the default scene, on a CPU with AVX2), camera
-/// batches where it does not (a sphere under the sky's ambient light) and
-/// with `--no-waves`: the same bytes either way.
+/// batches where it does not (hemisphere sampling) and with `--no-waves`:
+/// the same bytes either way.
 #[test]
 fn the_default_mode_runs_waves_where_arrays_take_the_scene() {
     let Some(scene) = common::shared("sky/CBbunny.dae") else {
@@ -272,23 +272,18 @@ fn the_default_mode_runs_waves_where_arrays_take_the_scene() {
         "the default scene: {}",
         text(&o)
     );
-    let sky = common::shared("basic/sphere_diffuse.dae").expect("a shared scene");
     let o = hybrid(
         &[
-            "render",
-            sky.to_str().unwrap(),
-            "-r",
-            "24",
-            "18",
-            "-s",
-            "2",
-            "-f",
-            "s.png",
+            "render", scene, "-H", "-r", "24", "18", "-s", "2", "-f", "h.png",
         ],
         &dir,
     );
     assert!(o.status.success(), "{}", text(&o));
-    assert!(text(&o).contains(camera), "sphere_diffuse: {}", text(&o));
+    assert!(
+        text(&o).contains(camera),
+        "hemisphere sampling: {}",
+        text(&o)
+    );
 }
 
 #[test]

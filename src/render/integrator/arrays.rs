@@ -15,9 +15,9 @@
 //! so the image has the bits of the paths walked alone (tested).
 //!
 //! The lanes take Lambertian vertices of smoothly shaded scenes lit by
-//! point, directional and rectangular area lights under light sampling or
-//! MIS ([`ArrayPlan`]); a sphere's surface point is the scalar function's.
-//! Every other vertex (a mirror, glass, a rough conductor, or any vertex
+//! point, directional, rectangular area and ambient lights under light
+//! sampling or MIS ([`ArrayPlan`]); a sphere's surface point is the
+//! scalar function's. Every other vertex (a mirror, glass, a rough conductor, or any vertex
 //! of a scene whose lights the lanes do not sample) takes the bounce
 //! through the integrator's own steps, path by path, its shadow rays on a
 //! tape that joins the same batch query.
@@ -47,10 +47,10 @@ const MOST_SAMPLES: usize = 8;
 /// Proof that a wave may run in arrays: the CPU runs AVX2 and the
 /// integrator traces paths. With it, the lights Lambertian vertices
 /// sample in lanes, where they do: the scene is smoothly shaded, every
-/// light a vertex samples is a point, directional or rectangular area
-/// light of the file's ([`crate::render::light::LightSet::plain`]), light
-/// sampling or MIS estimates them, and a vertex takes at most
-/// [`MOST_SAMPLES`] samples. Every other vertex (a mirror, glass, a rough
+/// light a vertex samples is a point, directional, rectangular area or
+/// ambient light of the file's
+/// ([`crate::render::light::LightSet::plain`]), light sampling or MIS
+/// estimates them, and a vertex takes at most [`MOST_SAMPLES`] samples. Every other vertex (a mirror, glass, a rough
 /// conductor; any vertex where the lanes do not take the lights) takes
 /// the integrator's own steps, one path at a time, inside the same
 /// passes and batch queries.
@@ -60,10 +60,11 @@ pub struct ArrayPlan<'l> {
     avx2: Avx2,
 }
 
-/// The lights of a vertex in lanes.
+/// The lights of a vertex in lanes: the delta lights, then the area and
+/// ambient lights in their order.
 struct Lanes<'l> {
     delta: &'l [Light],
-    areas: &'l [AreaLight],
+    each: &'l [Light],
 }
 
 impl<A: Accel> Integrator<'_, A> {
@@ -90,7 +91,7 @@ fn plan<'l>(
     let (Shading::Path(s), Some(avx2)) = (shading, avx2) else {
         return None;
     };
-    let lanes = lights.plain().and_then(|(delta, areas)| {
+    let lanes = lights.plain().and_then(|(delta, each)| {
         let delta_kinds = delta
             .iter()
             .all(|l| matches!(l, Light::Point { .. } | Light::Directional { .. }));
@@ -101,8 +102,8 @@ fn plan<'l>(
         let takes = estimated
             && delta_kinds
             && scene.normal_mode == NormalMode::Smooth
-            && delta.len() + areas.len() * s.light_samples.max(1) as usize <= MOST_SAMPLES;
-        takes.then_some(Lanes { delta, areas })
+            && delta.len() + each.len() * s.light_samples.max(1) as usize <= MOST_SAMPLES;
+        takes.then_some(Lanes { delta, each })
     });
     Some(ArrayPlan { lanes, s, avx2 })
 }
@@ -110,30 +111,35 @@ fn plan<'l>(
 impl ArrayPlan<'_> {
     /// What a vertex in lanes samples for its direct light, in
     /// `Integrator::direct`'s order: one sample of each delta light, then
-    /// `-l` of each area light; each group's terms are averaged.
+    /// `-l` of each area and ambient light; each group's terms are
+    /// averaged.
     fn groups(&self) -> impl Iterator<Item = (Source<'_>, u32)> {
         let n = self.s.light_samples.max(1);
-        let (delta, areas) = match &self.lanes {
-            Some(l) => (l.delta, l.areas),
+        let (delta, each) = match &self.lanes {
+            Some(l) => (l.delta, l.each),
             None => (&[][..], &[][..]),
         };
-        let delta = delta.iter().filter_map(|l| match *l {
-            Light::Point {
-                position,
-                intensity,
-            } => Some(Source::Point {
-                position,
-                intensity,
-            }),
-            Light::Directional { to_light, radiance } => {
-                Some(Source::Directional { to_light, radiance })
-            }
-            // Refused by the plan.
-            _ => None,
-        });
-        delta
-            .map(|source| (source, 1))
-            .chain(areas.iter().map(move |a| (Source::Area(a), n)))
+        fn source(l: &Light) -> Option<Source<'_>> {
+            Some(match *l {
+                Light::Point {
+                    position,
+                    intensity,
+                } => Source::Point {
+                    position,
+                    intensity,
+                },
+                Light::Directional { to_light, radiance } => {
+                    Source::Directional { to_light, radiance }
+                }
+                Light::Ambient { radiance } => Source::Ambient { radiance },
+                // Refused by the plan: emitting triangles and spheres.
+                Light::Area(ref a) if a.triangle => return None,
+                Light::Area(ref a) => Source::Area(a),
+                Light::Sphere { .. } => return None,
+            })
+        }
+        let delta = delta.iter().filter_map(source).map(|s| (s, 1));
+        delta.chain(each.iter().filter_map(source).map(move |s| (s, n)))
     }
 }
 
@@ -150,6 +156,11 @@ enum Source<'l> {
     },
     Directional {
         to_light: Vec3,
+        radiance: Vec3,
+    },
+    /// The sky's ambient light, sampled by two numbers around the
+    /// vertex's normals, weighted against BSDF sampling under MIS.
+    Ambient {
         radiance: Vec3,
     },
 }
@@ -629,7 +640,7 @@ impl ArrayWave {
         let mut slot = 0;
         for (source, n) in plan.groups() {
             for _ in 0..n {
-                if let Source::Area(_) = source {
+                if let Source::Area(_) | Source::Ambient { .. } = source {
                     for (i, stream) in self.light_stream.iter_mut().enumerate() {
                         if let Some(stream) = stream {
                             (self.draws[0][i], self.draws[1][i]) = stream.next_2d();
@@ -940,11 +951,14 @@ unsafe fn light_avx2(s: &PathSettings, wave: &mut ArrayWave, source: Source, slo
     let frac_1_pi = F8::splat(std::f32::consts::FRAC_1_PI);
     let end = F8::splat(crate::geom::ray::SHADOW_END);
     // MIS's weight counts the samples a group takes: `samples * pick`.
-    let mis = matches!(source, Source::Area(_)) && s.estimator == DirectEstimator::Mis;
+    let mis = matches!(source, Source::Area(_) | Source::Ambient { .. })
+        && s.estimator == DirectEstimator::Mis;
     let samples = mis.then(|| F8::splat(s.light_samples.max(1) as f32 * 1.0));
     let count = wave.at.len();
     for i in (0..wave.dir[0].len()).step_by(L) {
         let p = v3(&wave.p, i);
+        let (ng, ns) = (v3(&wave.ng, i), v3(&wave.ns, i));
+        let lifted = F8::load(&wave.lifted[i..]).gt(zero);
         // The sample: direction, distance, radiance over density, the
         // density, and whether there is one.
         let (wi, distance, contribution, pdf, some) = match source {
@@ -985,13 +999,46 @@ unsafe fn light_avx2(s: &PathSettings, wave: &mut ArrayWave, source: Source, slo
             Source::Directional { to_light, radiance } => {
                 (splat3(to_light), inf, splat3(radiance), inf, yes)
             }
+            Source::Ambient { radiance } => {
+                // `sample_li`: cosine-weighted around the geometric
+                // normal, or, from a lifted point (which faces by its
+                // smooth normal too), around either, picked by the first
+                // number.
+                let (u, v) = (F8::load(&wave.draws[0][i..]), F8::load(&wave.draws[1][i..]));
+                let (half, two) = (F8::splat(0.5), F8::splat(2.0));
+                let smooth = lifted.and(half.le(u));
+                let u = F8::select(lifted, F8::select(smooth, two * u - one, two * u), u);
+                let around = each3!(|k| F8::select(smooth, ns[k], ng[k]));
+                let mut local = [zero; 3];
+                for l in 0..L {
+                    let d = cosine_hemisphere(u.0[l].min(1.0 - f32::EPSILON / 2.0), v.0[l]);
+                    for k in 0..3 {
+                        local[k].0[l] = d[k];
+                    }
+                }
+                // `Frame::new(around).to_world(local)`.
+                let sign = one.copysign(around[2]);
+                let fa = -one / (sign + around[2]);
+                let fb = around[0] * around[1] * fa;
+                let fs = [
+                    one + sign * around[0] * around[0] * fa,
+                    sign * fb,
+                    -sign * around[0],
+                ];
+                let ft = [fb, sign + around[1] * around[1] * fa, -around[1]];
+                let wi = each3!(|k| fs[k] * local[0] + ft[k] * local[1] + around[k] * local[2]);
+                let some = yes.and_not(wi[1].le(zero)).and_not(local[2].le(zero));
+                // `Facing::ambient_pdf`.
+                let cosine = |n: [F8; 3]| dot(wi, n).max(zero) * frac_1_pi;
+                let pdf = F8::select(lifted, half * (cosine(ng) + cosine(ns)), cosine(ng));
+                let contribution = map3!(splat3(radiance), |x| x / pdf);
+                (wi, inf, contribution, pdf, some)
+            }
         };
         // `unoccluded`: in front of the shading normal, and of the facet
         // unless the point is lifted; the BSDF (Lambertian) not zero.
-        let ng = v3(&wave.ng, i);
-        let z = dot(wi, v3(&wave.ns, i));
+        let z = dot(wi, ns);
         let in_front = dot(wi, ng).gt(zero);
-        let lifted = F8::load(&wave.lifted[i..]).gt(zero);
         let mut albedo = [zero; 3];
         for l in 0..L {
             let a = wave.albedo[(i + l).min(count - 1)];
@@ -1011,7 +1058,7 @@ unsafe fn light_avx2(s: &PathSettings, wave: &mut ArrayWave, source: Source, slo
                 let sum = a2 + b2;
                 let plain = sum.gt(zero).and(sum.lt(inf));
                 let heuristic = F8::select(plain, a2 / sum, F8::select(a.ne(inf), zero, one));
-                F8::select(in_front, heuristic, one)
+                F8::select(in_front.and(pdf.lt(inf)), heuristic, one)
             }
             None => one,
         };
