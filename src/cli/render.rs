@@ -95,10 +95,12 @@ pub struct RenderArgs {
     /// Advance the paths in waves, every bounce's rays and shadow rays
     /// in batch queries, instead of batching camera rays only and walking
     /// each path alone from its first hit (the image is the same). The
-    /// default where a wave in arrays takes the scene (smooth shading,
-    /// Lambertian and emitting materials, point, directional and
-    /// rectangular lights, light sampling or MIS, an AVX2 CPU): faster
-    /// there on every backend measured; elsewhere slower (docs/design.md).
+    /// default where a wave in arrays steps the scene's Lambertian
+    /// vertices in lanes (smooth shading; point, directional, rectangular
+    /// area and ambient lights; light sampling or MIS; an AVX2 CPU; other
+    /// materials' vertices go path by path among them): faster there on
+    /// every backend measured but for a lone sphere; elsewhere slower
+    /// (docs/design.md).
     #[arg(long, conflicts_with = "no_packets")]
     pub waves: bool,
     /// Batch camera rays only and walk each path alone from its first

@@ -17,10 +17,10 @@
 //! The lanes take Lambertian vertices of smoothly shaded scenes lit by
 //! point, directional, rectangular area and ambient lights under light
 //! sampling or MIS ([`ArrayPlan`]); a sphere's surface point is the
-//! scalar function's. Every other vertex (a mirror, glass, a rough conductor, or any vertex
-//! of a scene whose lights the lanes do not sample) takes the bounce
-//! through the integrator's own steps, path by path, its shadow rays on a
-//! tape that joins the same batch query.
+//! scalar function's. Every other vertex (a mirror, glass, a rough
+//! conductor, or any vertex of a scene whose lights the lanes do not
+//! sample) takes the bounce through the integrator's own steps, path by
+//! path, its shadow rays on a tape that joins the same batch query.
 
 use glam::Vec3;
 
@@ -50,10 +50,10 @@ const MOST_SAMPLES: usize = 8;
 /// light a vertex samples is a point, directional, rectangular area or
 /// ambient light of the file's
 /// ([`crate::render::light::LightSet::plain`]), light sampling or MIS
-/// estimates them, and a vertex takes at most [`MOST_SAMPLES`] samples. Every other vertex (a mirror, glass, a rough
-/// conductor; any vertex where the lanes do not take the lights) takes
-/// the integrator's own steps, one path at a time, inside the same
-/// passes and batch queries.
+/// estimates them, and a vertex takes at most [`MOST_SAMPLES`] samples.
+/// Every other vertex (a mirror, glass, a rough conductor; any vertex
+/// where the lanes do not take the lights) takes the integrator's own
+/// steps, one path at a time, inside the same passes and batch queries.
 pub struct ArrayPlan<'l> {
     lanes: Option<Lanes<'l>>,
     s: PathSettings,
