@@ -1,7 +1,9 @@
 //! Batch queries: a batch's rays in groups of the packet width, each
 //! group traced as a packet where enough of its rays share an octant
-//! ([`min_packet`]), the others in streams (or one at a time, the closest
-//! hits of a coherent batch); the packet kernels chosen once per tree.
+//! ([`min_packet`]), or in a small tree as a packet of mixed octants
+//! ([`super::MIXED_PACKET_NODES`]), the others in streams (or one at a
+//! time, the closest hits of a coherent batch); the packet kernels chosen
+//! once per tree.
 
 use glam::Vec3A;
 
@@ -68,9 +70,12 @@ pub(super) trait Query {
         out: &mut [Self::Answer],
         counters: &mut TraceCounters,
     );
+    /// The packet `p`, its lanes of one octant or (`MIXED`) of any
+    /// ([`packet::walk`]).
+    ///
     /// # Safety
     /// From `W`'s `#[target_feature]` code, with a non-empty tree.
-    unsafe fn packet<W: Width>(
+    unsafe fn packet<W: Width, const MIXED: bool>(
         bvh: &NativeBvh,
         blocks: &[TriangleBlock4],
         rays: &[Ray],
@@ -134,7 +139,7 @@ pub(super) struct Occluded;
 /// As [`packet::walk`].
 #[cfg(target_arch = "x86_64")]
 #[inline(always)]
-unsafe fn walk_rooted<W: Width, const ANY: bool, P: PacketLeaves<W>>(
+unsafe fn walk_rooted<W: Width, const ANY: bool, const MIXED: bool, P: PacketLeaves<W>>(
     tree: &Tree,
     p: &Packet<W>,
     test: BoxTest,
@@ -153,7 +158,7 @@ unsafe fn walk_rooted<W: Width, const ANY: bool, P: PacketLeaves<W>>(
     // SAFETY: the caller keeps `packet::walk`'s contract.
     unsafe {
         if test == BoxTest::Fast && rooted.fast_test_fits() {
-            packet::walk::<W, false, ANY, P>(
+            packet::walk::<W, false, ANY, MIXED, P>(
                 tree,
                 &rooted,
                 t_max,
@@ -163,7 +168,7 @@ unsafe fn walk_rooted<W: Width, const ANY: bool, P: PacketLeaves<W>>(
                 SINGLE_BELOW,
             )
         } else {
-            packet::walk::<W, true, ANY, P>(
+            packet::walk::<W, true, ANY, MIXED, P>(
                 tree,
                 &rooted,
                 t_max,
@@ -264,7 +269,7 @@ impl Query for Closest {
     /// Triangles together, then spheres (if any) ray by ray within each
     /// ray's triangle hit, as [`NativeBvh::closest`] does.
     #[inline(always)]
-    unsafe fn packet<W: Width>(
+    unsafe fn packet<W: Width, const MIXED: bool>(
         bvh: &NativeBvh,
         blocks: &[TriangleBlock4],
         rays: &[Ray],
@@ -295,7 +300,7 @@ impl Query for Closest {
                     hit
                 };
             let mut leaves = BlockPacket::new(blocks, p.rays);
-            let found = walk_rooted::<W, false, _>(
+            let found = walk_rooted::<W, false, MIXED, _>(
                 tree,
                 p,
                 test,
@@ -392,7 +397,7 @@ impl Query for Occluded {
     /// Triangles together, then spheres ray by ray for those not blocked,
     /// as [`NativeBvh::any`] does.
     #[inline(always)]
-    unsafe fn packet<W: Width>(
+    unsafe fn packet<W: Width, const MIXED: bool>(
         bvh: &NativeBvh,
         blocks: &[TriangleBlock4],
         rays: &[Ray],
@@ -417,8 +422,15 @@ impl Query for Occluded {
                     traverse::any(tree, &box_ray, *t, &mut one, cpu, test, work, start)
                 };
             let mut leaves = BlockPacket::new(blocks, p.rays);
-            let blocked =
-                walk_rooted::<W, true, _>(tree, p, test, &mut t_max, &mut leaves, &mut alone, work);
+            let blocked = walk_rooted::<W, true, MIXED, _>(
+                tree,
+                p,
+                test,
+                &mut t_max,
+                &mut leaves,
+                &mut alone,
+                work,
+            );
             for i in lanes_of(p.mask) {
                 out[i] = blocked & (1 << i) != 0
                     || (!bvh.sphere_items.is_empty()
@@ -431,25 +443,29 @@ impl Query for Occluded {
 impl NativeBvh {
     /// Whether a group of up to `W::N` rays of a batch query forms a
     /// packet: its rays in lanes when an octant holds [`min_packet`] of
-    /// them (traceable or not), `None` when none does, having cost the
+    /// them (traceable or not), or the tree takes packets of mixed octants
+    /// and the group has that many rays; `None` otherwise, having cost the
     /// transposition and no more.
     ///
     /// # Safety
     /// From `W`'s `#[target_feature]` code.
     #[cfg(target_arch = "x86_64")]
     #[inline(always)]
-    unsafe fn forms<W: Width>(rays: &[Ray]) -> Option<[W::V; 8]> {
+    unsafe fn forms<W: Width>(&self, rays: &[Ray]) -> Option<[W::V; 8]> {
         // SAFETY: the caller runs with the width's CPU features enabled.
         unsafe {
             let fields = W::fields(rays);
-            packet::octant_holds::<W>(&fields, rays.len(), min_packet(W::N)).then_some(fields)
+            (self.mixed_packets && rays.len() >= min_packet(W::N) as usize
+                || packet::octant_holds::<W>(&fields, rays.len(), min_packet(W::N)))
+            .then_some(fields)
         }
     }
 
     /// The packets of a group of up to `W::N` rays whose fields are
     /// `fields` ([`Self::forms`]): the traceable ones of each octant as a
-    /// packet when there are [`min_packet`] of them, the others one at a
-    /// time.
+    /// packet when there are [`min_packet`] of them; the others as one
+    /// packet of mixed octants where the tree takes them and they are as
+    /// many, else one at a time.
     ///
     /// # Safety
     /// From `W`'s `#[target_feature]` code; the triangle tree is not
@@ -476,6 +492,8 @@ impl NativeBvh {
                 out[i] = Q::MISS;
             }
             let mut work = Work::default();
+            // Lanes of octants too small for a packet of their own.
+            let mut few = 0;
             while rest != 0 {
                 let group = prepared.same_octant(rest);
                 rest &= !group;
@@ -484,11 +502,20 @@ impl NativeBvh {
                         rays: &prepared,
                         mask: group,
                     };
-                    Q::packet::<W>(self, blocks, rays, &p, out, &mut work);
+                    Q::packet::<W, false>(self, blocks, rays, &p, out, &mut work);
                 } else {
-                    for i in lanes_of(group) {
-                        out[i] = Q::alone(self, &rays[i], counters);
-                    }
+                    few |= group;
+                }
+            }
+            if self.mixed_packets && few.count_ones() >= min_packet(W::N) {
+                let p = Packet {
+                    rays: &prepared,
+                    mask: few,
+                };
+                Q::packet::<W, true>(self, blocks, rays, &p, out, &mut work);
+            } else {
+                for i in lanes_of(few) {
+                    out[i] = Q::alone(self, &rays[i], counters);
                 }
             }
             counters.box_tests += work.nodes * node::WIDTH as u64;
@@ -515,7 +542,7 @@ impl NativeBvh {
         // SAFETY: AVX2 and FMA are enabled here, which is all either AVX2
         // width needs, and the caller keeps the tree's contract.
         unsafe {
-            let Some(fields) = Self::forms::<W>(rays) else {
+            let Some(fields) = self.forms::<W>(rays) else {
                 return false;
             };
             self.packets::<W, Q>(blocks, rays, &fields, out, counters);
@@ -540,7 +567,7 @@ impl NativeBvh {
         // SAFETY: AVX-512F is enabled here, which X16 needs, and the
         // caller keeps the tree's contract.
         unsafe {
-            let Some(fields) = Self::forms::<X16>(rays) else {
+            let Some(fields) = self.forms::<X16>(rays) else {
                 return false;
             };
             self.packets::<X16, Q>(blocks, rays, &fields, out, counters);
@@ -606,7 +633,9 @@ impl NativeBvh {
             // SAFETY: the kernels were chosen by the token that proves
             // their CPU features; the triangle tree is not empty (checked
             // above).
-            formed = (formed || packet::packet_can_form(group_rays, min_packet(lanes)))
+            formed = (formed
+                || self.mixed_packets
+                || packet::packet_can_form(group_rays, min_packet(lanes)))
                 && !plan.refuses(group_rays)
                 && unsafe { group(self, blocks, group_rays, &mut out[start..end], counters) };
             if formed {

@@ -133,6 +133,22 @@ pub const SCATTERED_FRACTION: f32 = 16.0;
 /// 1.03x, 8 and 6 alternating pairs).
 pub const PREFETCH_GROUPS: usize = 2;
 
+/// A triangle tree of at most this many nodes (a root and one level below
+/// it), in a scene without spheres, has a batch's rays of different
+/// octants traced as one packet ([`traverse::packet::walk`]'s mixed
+/// octants), as Embree's packets take any rays: every ray from points side
+/// by side meets the same few nodes, and a packet tests them once for all
+/// its rays. A deeper tree's incoherent rays part ways below the root,
+/// where a packet still tests each node for all its lanes and streams win.
+/// Exported waves, AVX2, packets against the streams they replace,
+/// Mrays/s: CBempty (1 node) bounce 22.4 -> 35.2, shadow 43 -> 77;
+/// CBbunny (1972 nodes) bounce 13.7 -> 10.9; maxplanck 7.9 -> 4.2;
+/// sky/bunny 7.9 -> 4.2 and shadow 10.8 -> 8.7. With spheres the frames
+/// lost, though the triangles' exported rays gained (CBspheres 29.3 ->
+/// 31.9 and 81 -> 123): extension batches 0.44 -> 0.50 s on CBspheres,
+/// 0.51 -> 0.63 s on the default scene (docs/experiments.md, stop 53).
+pub const MIXED_PACKET_NODES: usize = 1 + node::WIDTH;
+
 /// A child that fewer of a packet's rays enter is handed to the single-ray
 /// kernel, one ray at a time (0, 2 and 4 measured alike; 2 keeps a lone
 /// ray from dragging the packet's interval tests along).
@@ -165,6 +181,9 @@ pub struct NativeBvh {
     /// The batch queries' kernels.
     packets: PacketKernels,
     box_test: BoxTest,
+    /// Batch queries trace a group's rays of different octants as one
+    /// packet ([`MIXED_PACKET_NODES`]).
+    mixed_packets: bool,
     triangles: Tree,
     triangle_store: TriangleStore,
     spheres: Tree,
@@ -290,6 +309,7 @@ impl NativeBvh {
                 TriangleMode::MollerTrumbore => BoxTest::Fast,
                 TriangleMode::Watertight => BoxTest::Robust,
             },
+            mixed_packets: triangles.len() <= MIXED_PACKET_NODES && sphere_items.is_empty(),
             triangles: checked(triangles)?,
             triangle_store,
             spheres: checked(spheres)?,

@@ -130,6 +130,12 @@ impl Node8 {
         node
     }
 
+    /// The used slots, one bit each.
+    #[inline(always)]
+    pub fn used(&self) -> u32 {
+        (0..WIDTH).fold(0, |m, i| m | u32::from(self.child[i] != EMPTY) << i)
+    }
+
     /// Child slot `i`: its reference and box (`None` when unused).
     pub fn child(&self, i: usize) -> Option<(ChildRef, Bounds)> {
         (self.child[i] != EMPTY).then(|| {

@@ -1,6 +1,7 @@
 use super::*;
 use crate::accel::native::cpu::Avx2;
 use crate::accel::native::NativeOptions;
+use crate::accel::native::MIXED_PACKET_NODES;
 use crate::accel::Accel;
 use crate::parity::rays::{occlusion_rays, shadow_rays};
 use crate::scene::builtin::CORNELL;
@@ -114,6 +115,107 @@ fn scattered_parallel_shadow_rays_form_no_packets() {
             );
         } else {
             assert_eq!(batch.box_tests, alone.box_tests, "{name}: packets formed");
+        }
+    }
+}
+
+/// Rays of every octant from points side by side (ambient occlusion's,
+/// a diffuse bounce's, shadow rays from points under an area light) form
+/// no packet of one octant. In a tree of a root and one level below it
+/// they go as packets of mixed octants: far fewer node tests (one per
+/// packet's node). In a deep tree, or beside spheres, they go as
+/// streams, about the node tests of single rays. The same answers
+/// everywhere.
+#[test]
+fn rays_of_mixed_octants_form_packets_in_small_trees() {
+    let Some((cornell, with_spheres)) = cornell_where_streams_run() else {
+        return;
+    };
+    let build = |scene: &crate::scene::Scene| {
+        NativeBvh::build(scene, &NativeOptions::DEFAULT).expect("native builds")
+    };
+    let (few, cloud) = (
+        crate::scene::generate::sphere_cloud(4, 0, 5),
+        crate::scene::generate::sphere_cloud(64, 2, 5),
+    );
+    let (small, deep) = (build(&few), build(&cloud));
+    assert!(small.triangles.nodes().len() <= MIXED_PACKET_NODES);
+    assert!(deep.triangles.nodes().len() > 100);
+    assert!(with_spheres.triangles.nodes().len() <= MIXED_PACKET_NODES);
+    for (name, scene, bvh, packets) in [
+        ("four icospheres", &few, &small, true),
+        ("64 icospheres", &cloud, &deep, false),
+        // Each lane's sphere walk would rebuild its ray's box constants.
+        (
+            "the Cornell box, with spheres",
+            &cornell,
+            &with_spheres,
+            false,
+        ),
+    ] {
+        let size = scene.bounds().extent().max_element();
+        let random = occlusion_rays(scene, 4_096, 11);
+        let base = random[0].origin;
+        let rays: Vec<Ray> = random
+            .iter()
+            .enumerate()
+            .map(|(i, r)| Ray {
+                origin: base + Vec3::new((i % 4) as f32, (i / 4 % 4) as f32, 0.0) * size * 1e-3,
+                t_max: 0.3 * size,
+                ..*r
+            })
+            .collect();
+        let one_octant = rays
+            .chunks(8)
+            .filter(|g| packet::packet_can_form(g, min_packet(8)))
+            .count();
+        assert!(
+            one_octant * 20 < rays.len() / 8,
+            "{name}: {one_octant} groups of one octant"
+        );
+        let mut alone = TraceCounters::default();
+        let single: Vec<bool> = rays.iter().map(|r| bvh.occluded(r, &mut alone)).collect();
+        assert!(
+            single.iter().any(|&b| b) && single.iter().any(|&b| !b),
+            "{name}"
+        );
+        let mut batch = TraceCounters::default();
+        let mut out = vec![false; rays.len()];
+        bvh.occluded_all(&rays, &mut out, &mut batch);
+        assert_eq!(out, single, "{name}: occlusion");
+        let (any_alone, any_batch) = (alone.box_tests, batch.box_tests);
+        let mut alone = TraceCounters::default();
+        let single: Vec<_> = rays
+            .iter()
+            .map(|r| bvh.closest_hit(r, &mut alone))
+            .collect();
+        assert!(single.iter().any(|h| h.is_some()), "{name}: nothing hit");
+        let mut batch = TraceCounters::default();
+        let mut hits = vec![None; rays.len()];
+        bvh.closest_hits(
+            &rays,
+            crate::accel::Coherence::Incoherent,
+            &mut hits,
+            &mut batch,
+        );
+        assert_eq!(hits, single, "{name}: closest hits");
+        for (query, alone, batch) in [
+            ("occlusion", any_alone, any_batch),
+            ("closest hits", alone.box_tests, batch.box_tests),
+        ] {
+            if packets {
+                assert!(
+                    batch * 2 < alone,
+                    "{name} {query}: {batch} node tests, {alone} alone"
+                );
+            } else {
+                // Streams test each ray's nodes (closest hits in another
+                // order, so their counts differ a little).
+                assert!(
+                    batch * 10 > alone * 9,
+                    "{name} {query}: packets formed ({batch} node tests, {alone} alone)"
+                );
+            }
         }
     }
 }

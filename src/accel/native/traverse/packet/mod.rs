@@ -1,4 +1,5 @@
-//! Packet traversal: up to sixteen rays of one octant walk the tree together
+//! Packet traversal: up to sixteen rays of one octant (or of mixed octants,
+//! see [`walk`]) walk the tree together
 //! (Wald et al. 2001, "Interactive Rendering with Coherent Ray Tracing";
 //! the hybrid packet/single scheme of Benthin et al. 2012, "Combining
 //! Single and Packet-Ray Tracing for Arbitrary Ray Distributions on the
@@ -42,7 +43,7 @@ mod x8x2;
 
 use std::arch::x86_64::*;
 
-use self::slab::{interval, interval_slab, lane_slab, masked_t_max};
+use self::slab::{interval, interval_slab, lane_slab, lane_slab_mixed, masked_t_max};
 pub use self::width::{Width, MAX_LANES, X8};
 pub use self::x16::X16;
 pub use self::x8x2::X8x2;
@@ -281,7 +282,8 @@ impl<W: Width> PacketRays<W> {
     }
 }
 
-/// A packet: the lanes in `mask` of `rays`, which share one octant.
+/// A packet: the lanes in `mask` of `rays`, which share one octant unless
+/// walked with mixed octants ([`walk`]).
 pub struct Packet<'r, W: Width> {
     pub rays: &'r PacketRays<W>,
     pub mask: u32,
@@ -332,12 +334,28 @@ fn bits(mut mask: u32) -> impl Iterator<Item = usize> {
 /// closest hit where `leaves` keeps lane `i`'s) and says whether it hit.
 /// One walk for both queries, the choice made at compile time.
 ///
+/// With `MIXED` the lanes may point into different octants, as Embree's
+/// packets may: no interval test culls the node's children for the whole
+/// packet; each used child is tested lane by lane on both of its planes
+/// per axis ([`lane_slab_mixed`], the single-ray test's values), visited
+/// in slot order (any hits) or the lowest lane's octant order (closest
+/// hits, each pushed with the nearest entry among its lanes). Diffuse
+/// bounces and shadow rays towards an area light from points side by side
+/// form no packet of one octant, yet in a small tree they meet the same
+/// nodes.
+///
 /// # Safety
 /// Only from `W`'s `#[target_feature]` code ([`Width`]), which also has
 /// AVX2 and FMA; `tree` is not empty.
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
-pub unsafe fn walk<W: Width, const ROBUST: bool, const ANY: bool, P: PacketLeaves<W>>(
+pub unsafe fn walk<
+    W: Width,
+    const ROBUST: bool,
+    const ANY: bool,
+    const MIXED: bool,
+    P: PacketLeaves<W>,
+>(
     tree: &Tree,
     packet: &Packet<W>,
     t_max: &mut [f32; MAX_LANES],
@@ -350,7 +368,11 @@ pub unsafe fn walk<W: Width, const ROBUST: bool, const ANY: bool, P: PacketLeave
     // enabled (a detected token chose this code) and the tree was checked by `Tree::new`,
     // so every node reference read from it is in range.
     unsafe {
-        let ia = interval::<W, ROBUST>(packet);
+        let ia = if MIXED {
+            None
+        } else {
+            Some(interval::<W, ROBUST>(packet))
+        };
         let lanes = packet.rays;
         let rows = packet.rows();
         let shift = _mm_cvtsi32_si128(3 * packet.octant() as i32);
@@ -372,7 +394,10 @@ pub unsafe fn walk<W: Width, const ROBUST: bool, const ANY: bool, P: PacketLeave
                 // SAFETY: the root, or an inner reference read from a node.
                 let node = tree.node_unchecked(current);
                 work.nodes += 1;
-                let (near, passed) = interval_slab::<ROBUST>(node, &ia, &rows, _mm256_set1_ps(far));
+                let (near, passed) = match &ia {
+                    Some(ia) => interval_slab::<ROBUST>(node, ia, &rows, _mm256_set1_ps(far)),
+                    None => (_mm256_setzero_ps(), node.used()),
+                };
                 if passed != 0 {
                     let mut places = [0u32; WIDTH];
                     let mut near_of = [0f32; WIDTH];
@@ -399,8 +424,14 @@ pub unsafe fn walk<W: Width, const ROBUST: bool, const ANY: bool, P: PacketLeave
                     };
                     for place in bits(visit) {
                         let c = if ANY { place } else { places[place] as usize };
-                        let entering =
-                            lane_slab::<W, ROBUST>(node, c, lanes, &rows, t_lanes) & mask;
+                        let (entering, entry) = if MIXED {
+                            let (near, entering) =
+                                lane_slab_mixed::<W, ROBUST>(node, c, lanes, t_lanes);
+                            (entering & mask, near)
+                        } else {
+                            let entering = lane_slab::<W, ROBUST>(node, c, lanes, &rows, t_lanes);
+                            (entering & mask, lanes.lanes.t_min)
+                        };
                         if entering == 0 {
                             continue;
                         }
@@ -428,7 +459,12 @@ pub unsafe fn walk<W: Width, const ROBUST: bool, const ANY: bool, P: PacketLeave
                         *refs.add(top) = child;
                         *masks.add(top) = entering;
                         if !ANY {
-                            *dists.add(top) = near_of[c];
+                            // Mixed lanes: the nearest entry among them.
+                            *dists.add(top) = if MIXED {
+                                W::min_each([entry], entering)[0]
+                            } else {
+                                near_of[c]
+                            };
                         }
                         top += 1;
                     }

@@ -215,6 +215,57 @@ pub(super) unsafe fn lane_slab<W: Width, const ROBUST: bool>(
     }
 }
 
+/// [`lane_slab`] for lanes of any octants: each axis's distances to both
+/// planes, the nearer taken as entry and the farther as exit, lane by
+/// lane. Distances are monotone in the plane (rounding is monotone, and
+/// near and far reciprocals share the direction's sign), so the smaller
+/// of the two is exactly the distance to the plane the ray's octant picks
+/// as near, and the larger to its far plane: each lane gets the single-ray
+/// test's values, bit for bit (the entry distances are returned with
+/// the lanes that enter). `c` must be a used slot (an unused slot's
+/// planes are inverted, which only the octant's rows reject).
+#[inline(always)]
+pub(super) unsafe fn lane_slab_mixed<W: Width, const ROBUST: bool>(
+    node: &Node8,
+    c: usize,
+    r: &PacketRays<W>,
+    t_max: W::V,
+) -> (W::V, u32) {
+    // SAFETY: the caller runs with the width's CPU features enabled.
+    unsafe {
+        let [near_r, near_c, far_r, far_c] = constants::<W, ROBUST>(r);
+        let mut near = r.lanes.t_min;
+        let mut far = W::splat(f32::INFINITY);
+        for a in 0..3 {
+            let (lo, hi) = (node.planes[2 * a][c], node.planes[2 * a + 1][c]);
+            let entry = W::min(
+                lane_distance::<W, ROBUST>(lo, near_r[a], near_c[a]),
+                lane_distance::<W, ROBUST>(hi, near_r[a], near_c[a]),
+            );
+            let exit = if ROBUST {
+                // The robust form's far constants are the near ones.
+                W::max(
+                    lane_distance::<W, ROBUST>(lo, near_r[a], near_c[a]),
+                    lane_distance::<W, ROBUST>(hi, near_r[a], near_c[a]),
+                )
+            } else {
+                W::max(
+                    lane_distance::<W, ROBUST>(lo, far_r[a], far_c[a]),
+                    lane_distance::<W, ROBUST>(hi, far_r[a], far_c[a]),
+                )
+            };
+            near = W::max(near, entry);
+            far = W::min(far, exit);
+        }
+        let far = if ROBUST {
+            W::mul(far, W::splat(BOX_FAR_SCALE))
+        } else {
+            far
+        };
+        (near, W::le(near, W::min(far, t_max)))
+    }
+}
+
 /// One slab end's distance for every lane: `(plane - c) * r` (robust form,
 /// `c` the origin, `r` the reciprocal) or `plane * r - c` rounded once
 /// (fast form, `c` the origin times the reciprocal).
