@@ -187,6 +187,36 @@ impl F8 {
             |b: i32| self.each(|q| f32::from_bits(if (q as i32) & b != 0 { u32::MAX } else { 0 }));
         (bit(1), bit(2))
     }
+    /// [`crate::geom::sampling::sin_cos_turns`] lane by lane: the same
+    /// operations in the same order, the quarter turn applied by selects
+    /// and exact negations.
+    #[inline(always)]
+    pub fn sin_cos_turns(self) -> (F8, F8) {
+        use crate::geom::sampling::{COS_POLY, SIN_POLY};
+        let t = F8::splat(4.0) * self;
+        let quarter = (t + F8::splat(0.5)).floor();
+        let x = (t - quarter) * F8::splat(std::f32::consts::FRAC_PI_2);
+        let z = x * x;
+        let (s0, s1, s2) = (
+            F8::splat(SIN_POLY[0]),
+            F8::splat(SIN_POLY[1]),
+            F8::splat(SIN_POLY[2]),
+        );
+        let (c0, c1, c2) = (
+            F8::splat(COS_POLY[0]),
+            F8::splat(COS_POLY[1]),
+            F8::splat(COS_POLY[2]),
+        );
+        let sin = ((s0 * z + s1) * z + s2) * z * x + x;
+        let cos = ((c0 * z + c1) * z + c2) * z * z - F8::splat(0.5) * z + F8::splat(1.0);
+        let (odd, upper) = quarter.quadrant();
+        let (sin, cos) = (F8::select(odd, cos, sin), F8::select(odd, sin, cos));
+        let flip_cos = odd.bits(upper, |a, b| a ^ b);
+        (
+            F8::select(upper, -sin, sin),
+            F8::select(flip_cos, -cos, cos),
+        )
+    }
     /// `x.next_up()` where `offset > 0`, `next_down` where below, `x`
     /// where zero (`Ray::spawn`'s last step): the standard library's
     /// steps on the bits, without its branches.

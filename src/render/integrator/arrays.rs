@@ -29,7 +29,7 @@ use super::shadows::{Deferred, Span};
 use super::{Background, DirectEstimator, Integrator, PathSettings, Previous, Shading, ShadowTape};
 use crate::accel::native::cpu::Avx2;
 use crate::accel::{Accel, Coherence, TraceCounters};
-use crate::geom::sampling::{cosine_hemisphere, Rng};
+use crate::geom::sampling::Rng;
 use crate::geom::{gamma, Hit, Ray};
 use crate::render::f8::F8;
 use crate::render::light::Facing;
@@ -761,6 +761,18 @@ impl ArrayWave {
     }
 }
 
+/// [`crate::geom::sampling::cosine_hemisphere`] lane by lane, its bits.
+#[inline(always)]
+fn cosine_hemisphere8(u: F8, v: F8) -> [F8; 3] {
+    let r = u.sqrt();
+    let (sin, cos) = v.sin_cos_turns();
+    [
+        r * cos,
+        r * sin,
+        (F8::splat(1.0) - u).max(F8::splat(0.0)).sqrt(),
+    ]
+}
+
 /// The BSDF pass behind its proof of AVX2.
 fn bsdf_pass(_avx2: Avx2, wave: &mut ArrayWave) {
     // SAFETY: `Avx2` exists only where the CPU runs AVX2
@@ -781,15 +793,8 @@ unsafe fn bsdf_avx2(wave: &mut ArrayWave) {
     let zero = F8::splat(0.0);
     let frac_1_pi = F8::splat(std::f32::consts::FRAC_1_PI);
     for i in (0..wave.dir[0].len()).step_by(L) {
-        // `cosine_hemisphere` lane by lane: its sine and cosine are
-        // libm's, whose bits the lanes must keep.
-        let mut local = [zero; 3];
-        for l in 0..L {
-            let d = cosine_hemisphere(wave.draws[0][i + l], wave.draws[1][i + l]);
-            for k in 0..3 {
-                local[k].0[l] = d[k];
-            }
-        }
+        let local =
+            cosine_hemisphere8(F8::load(&wave.draws[0][i..]), F8::load(&wave.draws[1][i..]));
         let (s, t, n) = (v3(&wave.s, i), v3(&wave.t, i), v3(&wave.ns, i));
         let wi = each3!(|k| s[k] * local[0] + t[k] * local[1] + n[k] * local[2]);
         let ng = v3(&wave.ng, i);
@@ -1009,13 +1014,7 @@ unsafe fn light_avx2(s: &PathSettings, wave: &mut ArrayWave, source: Source, slo
                 let smooth = lifted.and(half.le(u));
                 let u = F8::select(lifted, F8::select(smooth, two * u - one, two * u), u);
                 let around = each3!(|k| F8::select(smooth, ns[k], ng[k]));
-                let mut local = [zero; 3];
-                for l in 0..L {
-                    let d = cosine_hemisphere(u.0[l].min(1.0 - f32::EPSILON / 2.0), v.0[l]);
-                    for k in 0..3 {
-                        local[k].0[l] = d[k];
-                    }
-                }
+                let local = cosine_hemisphere8(u.min(F8::splat(1.0 - f32::EPSILON / 2.0)), v);
                 // `Frame::new(around).to_world(local)`.
                 let sign = one.copysign(around[2]);
                 let fa = -one / (sign + around[2]);
