@@ -263,6 +263,7 @@ fn render_rows<A: Accel>(
 /// The camera ray of sample `i` of pixel `(x, y)`, and the sample's random
 /// stream after it (the lens sample comes first from the stream, and only
 /// with a lens: pinhole images keep their random numbers).
+#[inline(always)]
 fn camera_sample(camera: &Camera, settings: &RenderSettings, x: u32, y: u32, i: u32) -> (Ray, Rng) {
     let mut rng = Rng::for_sample(settings.seed, x, y, i);
     // One sample at the pixel centre when there is one sample; positions
