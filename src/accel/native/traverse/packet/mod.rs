@@ -424,13 +424,14 @@ pub unsafe fn walk<
                     };
                     for place in bits(visit) {
                         let c = if ANY { place } else { places[place] as usize };
-                        let (entering, entry) = if MIXED {
+                        // Mixed lanes: each one's entry distance too.
+                        let (entering, entries) = if MIXED {
                             let (near, entering) =
                                 lane_slab_mixed::<W, ROBUST>(node, c, lanes, t_lanes);
-                            (entering & mask, near)
+                            (entering & mask, Some(near))
                         } else {
                             let entering = lane_slab::<W, ROBUST>(node, c, lanes, &rows, t_lanes);
-                            (entering & mask, lanes.lanes.t_min)
+                            (entering & mask, None)
                         };
                         if entering == 0 {
                             continue;
@@ -460,10 +461,9 @@ pub unsafe fn walk<
                         *masks.add(top) = entering;
                         if !ANY {
                             // Mixed lanes: the nearest entry among them.
-                            *dists.add(top) = if MIXED {
-                                W::min_each([entry], entering)[0]
-                            } else {
-                                near_of[c]
+                            *dists.add(top) = match entries {
+                                Some(near) => W::min_each([near], entering)[0],
+                                None => near_of[c],
                             };
                         }
                         top += 1;

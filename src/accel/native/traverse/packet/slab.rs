@@ -238,24 +238,19 @@ pub(super) unsafe fn lane_slab_mixed<W: Width, const ROBUST: bool>(
         let mut far = W::splat(f32::INFINITY);
         for a in 0..3 {
             let (lo, hi) = (node.planes[2 * a][c], node.planes[2 * a + 1][c]);
-            let entry = W::min(
-                lane_distance::<W, ROBUST>(lo, near_r[a], near_c[a]),
-                lane_distance::<W, ROBUST>(hi, near_r[a], near_c[a]),
-            );
-            let exit = if ROBUST {
-                // The robust form's far constants are the near ones.
-                W::max(
-                    lane_distance::<W, ROBUST>(lo, near_r[a], near_c[a]),
-                    lane_distance::<W, ROBUST>(hi, near_r[a], near_c[a]),
-                )
+            let to_lo = lane_distance::<W, ROBUST>(lo, near_r[a], near_c[a]);
+            let to_hi = lane_distance::<W, ROBUST>(hi, near_r[a], near_c[a]);
+            // The robust form's far constants are the near ones.
+            let (from_lo, from_hi) = if ROBUST {
+                (to_lo, to_hi)
             } else {
-                W::max(
+                (
                     lane_distance::<W, ROBUST>(lo, far_r[a], far_c[a]),
                     lane_distance::<W, ROBUST>(hi, far_r[a], far_c[a]),
                 )
             };
-            near = W::max(near, entry);
-            far = W::min(far, exit);
+            near = W::max(near, W::min(to_lo, to_hi));
+            far = W::min(far, W::max(from_lo, from_hi));
         }
         let far = if ROBUST {
             W::mul(far, W::splat(BOX_FAR_SCALE))
