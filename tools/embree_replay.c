@@ -1,8 +1,8 @@
 /* An independent replay of hybrid's exported ray sets (docs/rays.md) on
  * Embree 3 or 4, as a plain C program calls it: its own scene from
- * triangles.bin (Embree's default, medium build quality), one rtcIntersect1
- * or rtcOccluded1 per ray, Mrays/s by the thread's CPU time (median of the
- * rounds). Embree is opened with dlopen so that one source serves both
+ * triangles.bin (Embree's default, medium build quality, unless asked),
+ * one rtcIntersect1 or rtcOccluded1 per ray, Mrays/s by the thread's CPU
+ * time (median of the rounds). Embree is opened with dlopen so that one source serves both
  * versions without their headers.
  *
  * The kinds of a render's waves (wave_bounce, wave_shadow) are
@@ -12,6 +12,9 @@
  * rtcOccluded16 instead, sixteen consecutive rays a call, once without a
  * hint and once with the version's coherent flag (Embree 3's context flag
  * 1, Embree 4's query flag 1 << 16), each timed alone.
+ *
+ * EMBREE_QUALITY=0|1|2 in the environment sets the scene's build quality
+ * (low, medium, high: Embree's spatial splits) before the build.
  *
  *   gcc -O2 -o /tmp/replay3 tools/embree_replay.c -ldl -DEMBREE_MAJOR=3
  *   taskset -c 1 /tmp/replay3 DIR /usr/lib/x86_64-linux-gnu/libembree3.so.3 [ROUNDS] [packets]
@@ -90,6 +93,7 @@ static void (*rtcCommitGeometry)(void *);
 static unsigned (*rtcAttachGeometry)(void *, void *);
 static void (*rtcReleaseGeometry)(void *);
 static void (*rtcCommitScene)(void *);
+static void (*rtcSetSceneBuildQuality)(void *, int);
 static void (*intersect1)();
 static void (*occluded1)();
 static void (*intersect16)();
@@ -171,7 +175,7 @@ int main(int argc, char **argv) {
   void *lib = dlopen(argv[2], RTLD_NOW | RTLD_LOCAL);
   if (!lib) { fprintf(stderr, "%s\n", dlerror()); return 2; }
   LOAD(rtcNewDevice) LOAD(rtcNewScene) LOAD(rtcNewGeometry) LOAD(rtcSetNewGeometryBuffer)
-  LOAD(rtcCommitGeometry) LOAD(rtcAttachGeometry) LOAD(rtcReleaseGeometry) LOAD(rtcCommitScene)
+  LOAD(rtcCommitGeometry) LOAD(rtcAttachGeometry) LOAD(rtcReleaseGeometry) LOAD(rtcCommitScene) LOAD(rtcSetSceneBuildQuality)
   if (!(*(void **)&intersect1 = dlsym(lib, "rtcIntersect1"))) return 2;
   if (!(*(void **)&occluded1 = dlsym(lib, "rtcOccluded1"))) return 2;
   if (!(*(void **)&intersect16 = dlsym(lib, "rtcIntersect16"))) return 2;
@@ -183,6 +187,14 @@ int main(int argc, char **argv) {
   if (!tris) { fprintf(stderr, "%s: not a triangle file\n", path); return 2; }
   void *device = rtcNewDevice("threads=1");
   void *scene = rtcNewScene(device);
+  const char *quality = getenv("EMBREE_QUALITY");
+  if (quality) {
+    if (strlen(quality) != 1 || quality[0] < '0' || quality[0] > '2') {
+      fprintf(stderr, "EMBREE_QUALITY must be 0, 1 or 2 (low, medium, high), not '%s'\n", quality);
+      return 2;
+    }
+    rtcSetSceneBuildQuality(scene, quality[0] - '0');
+  }
   void *geom = rtcNewGeometry(device, 0 /* TRIANGLE */);
   float *v = rtcSetNewGeometryBuffer(geom, 1 /* VERTEX */, 0, 0x9003 /* FLOAT3 */, 12, 3 * nt);
   unsigned *ix = rtcSetNewGeometryBuffer(geom, 0 /* INDEX */, 0, 0x5003 /* UINT3 */, 12, nt);
@@ -196,8 +208,8 @@ int main(int argc, char **argv) {
   const char *kinds[] = {"camera", "camera_rows", "incoherent", "shadow", "bounce", "light",
                          "wave_bounce", "wave_shadow"};
   const int n_kinds = sizeof kinds / sizeof kinds[0];
-  printf("Embree %d (%s), %llu triangles, %d rounds, Mrays/s by thread CPU time\n",
-         EMBREE_MAJOR, argv[2], (unsigned long long)nt, rounds);
+  printf("Embree %d (%s), %llu triangles, build quality %s, %d rounds, Mrays/s by thread CPU time\n",
+         EMBREE_MAJOR, argv[2], (unsigned long long)nt, quality ? quality : "1 (default)", rounds);
   unsigned coherent = EMBREE_MAJOR == 3 ? 1u : 1u << 16;
   for (int k = 0; k < n_kinds; k++) {
     if (packets && k != 0 && k < 5) continue;
