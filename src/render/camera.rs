@@ -200,35 +200,39 @@ impl Camera {
         }
     }
 
-    /// Whether rays need a lens sample ([`Camera::ray_through_lens`]).
+    /// Whether rays need a lens sample ([`Camera::origin_and_dir`]).
     pub fn has_lens(&self) -> bool {
         self.lens.is_some()
     }
 
-    /// The ray through image position `(x, y)` from lens sample `(u, v)`
-    /// in the unit square; the pinhole ray without a lens.
-    #[inline]
-    pub fn ray_through_lens(&self, x: f32, y: f32, (u, v): (f32, f32)) -> Ray {
-        let Some(lens) = self.lens else {
-            return self.ray(x, y);
-        };
+    /// The ray through image position `(x, y)` in pixels, as its origin
+    /// and unit direction: from lens sample `(u, v)` in the unit square
+    /// where the camera has a lens, else (or without a sample) the pinhole
+    /// ray. Two values, so that a caller can write them into a ray in
+    /// place.
+    #[inline(always)]
+    pub fn origin_and_dir(&self, x: f32, y: f32, lens_sample: Option<(f32, f32)>) -> (Vec3, Vec3) {
         let sx = (2.0 * x / self.width as f32 - 1.0) * self.tan_half_x;
         let sy = (1.0 - 2.0 * y / self.height as f32) * self.tan_half_y;
-        // The pinhole ray reaches the plane of focus at depth D.
-        let focus = (self.right * sx + self.up * sy - self.back) * lens.focal_distance;
-        let (dx, dy) = concentric_disk(u, v);
-        let offset = (self.right * dx + self.up * dy) * lens.radius;
-        Ray::new(self.position + offset, (focus - offset).normalize())
+        let pinhole = self.right * sx + self.up * sy - self.back;
+        match (self.lens, lens_sample) {
+            (Some(lens), Some((u, v))) => {
+                // The pinhole ray reaches the plane of focus at depth D.
+                let focus = pinhole * lens.focal_distance;
+                let (dx, dy) = concentric_disk(u, v);
+                let offset = (self.right * dx + self.up * dy) * lens.radius;
+                (self.position + offset, (focus - offset).normalize())
+            }
+            _ => (self.position, pinhole.normalize()),
+        }
     }
 
     /// The ray through image position `(x, y)` in pixels, `(0, 0)` the top
     /// left corner of the image.
     #[inline]
     pub fn ray(&self, x: f32, y: f32) -> Ray {
-        let sx = (2.0 * x / self.width as f32 - 1.0) * self.tan_half_x;
-        let sy = (1.0 - 2.0 * y / self.height as f32) * self.tan_half_y;
-        let dir = (self.right * sx + self.up * sy - self.back).normalize();
-        Ray::new(self.position, dir)
+        let (origin, dir) = self.origin_and_dir(x, y, None);
+        Ray::new(origin, dir)
     }
 }
 

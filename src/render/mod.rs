@@ -260,11 +260,20 @@ fn render_rows<A: Accel>(
     }
 }
 
-/// The camera ray of sample `i` of pixel `(x, y)`, and the sample's random
-/// stream after it (the lens sample comes first from the stream, and only
-/// with a lens: pinhole images keep their random numbers).
+/// The camera ray of sample `i` of pixel `(x, y)`, written into `ray`,
+/// and the sample's random stream after it, into `stream` (the lens
+/// sample comes first from the stream, and only with a lens: pinhole
+/// images keep their random numbers). Field by field: a ray built whole
+/// and copied went through the stack, its direction stored in two parts
+/// and reloaded in one (a stalled store forwarding, 1-3% of a frame).
 #[inline(always)]
-fn camera_sample(camera: &Camera, settings: &RenderSettings, x: u32, y: u32, i: u32) -> (Ray, Rng) {
+fn camera_sample(
+    camera: &Camera,
+    settings: &RenderSettings,
+    (x, y, i): (u32, u32, u32),
+    ray: &mut Ray,
+    stream: &mut Rng,
+) {
     let mut rng = Rng::for_sample(settings.seed, x, y, i);
     // One sample at the pixel centre when there is one sample; positions
     // spread evenly over the pixel otherwise.
@@ -273,13 +282,13 @@ fn camera_sample(camera: &Camera, settings: &RenderSettings, x: u32, y: u32, i: 
     } else {
         pixel_position(settings.seed, x, y, i)
     };
-    let ray = if camera.has_lens() {
-        let lens = rng.next_2d();
-        camera.ray_through_lens(x as f32 + dx, y as f32 + dy, lens)
-    } else {
-        camera.ray(x as f32 + dx, y as f32 + dy)
-    };
-    (ray, rng)
+    let lens = camera.has_lens().then(|| rng.next_2d());
+    let (origin, dir) = camera.origin_and_dir(x as f32 + dx, y as f32 + dy, lens);
+    ray.origin = origin;
+    ray.dir = dir;
+    ray.t_min = 0.0;
+    ray.t_max = f32::INFINITY;
+    *stream = rng;
 }
 
 /// Whether a pixel's adaptive sampling may stop after `n` samples of
@@ -361,17 +370,18 @@ fn render_row<A: Accel>(
             let block = per_wave.max(SIDE_BY_SIDE).min(end - i);
             let pieces = active.len().div_ceil((wave_paths / block as usize).max(1));
             for pixels in active.chunks(active.len().div_ceil(pieces)) {
-                rays.clear();
-                streams.clear();
                 // Pixel by pixel: the paths next to each other in a wave
                 // start in one pixel, so that their camera rays and the
                 // shadow rays of their first hits form tight packets.
+                let paths = pixels.len() * block as usize;
+                rays.resize(paths, Ray::new(Vec3::ZERO, Vec3::Z));
+                streams.resize(paths, Rng::new(0, 0));
+                let mut slots = rays.iter_mut().zip(streams.iter_mut());
                 for &p in pixels {
                     let x = columns.start + p as u32;
                     for sample in i..i + block {
-                        let (ray, rng) = camera_sample(camera, settings, x, y, sample);
-                        rays.push(ray);
-                        streams.push(rng);
+                        let (ray, stream) = slots.next().expect("a slot for every path");
+                        camera_sample(camera, settings, (x, y, sample), ray, stream);
                     }
                 }
                 wave.radiance(
