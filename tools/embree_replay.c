@@ -2,8 +2,8 @@
  * Embree 3 or 4, as a plain C program calls it: its own scene from
  * triangles.bin (Embree's default, medium build quality, unless asked),
  * one rtcIntersect1 or rtcOccluded1 per ray, Mrays/s by the thread's CPU
- * time (median of the rounds). Embree is opened with dlopen so that one source serves both
- * versions without their headers.
+ * time (median of the rounds). Embree is opened with dlopen so that one
+ * source serves both versions without their headers.
  *
  * The kinds of a render's waves (wave_bounce, wave_shadow) are
  * replayed too where the folder holds them. With `packets` as the fourth
@@ -175,7 +175,8 @@ int main(int argc, char **argv) {
   void *lib = dlopen(argv[2], RTLD_NOW | RTLD_LOCAL);
   if (!lib) { fprintf(stderr, "%s\n", dlerror()); return 2; }
   LOAD(rtcNewDevice) LOAD(rtcNewScene) LOAD(rtcNewGeometry) LOAD(rtcSetNewGeometryBuffer)
-  LOAD(rtcCommitGeometry) LOAD(rtcAttachGeometry) LOAD(rtcReleaseGeometry) LOAD(rtcCommitScene) LOAD(rtcSetSceneBuildQuality)
+  LOAD(rtcCommitGeometry) LOAD(rtcAttachGeometry) LOAD(rtcReleaseGeometry) LOAD(rtcCommitScene)
+  LOAD(rtcSetSceneBuildQuality)
   if (!(*(void **)&intersect1 = dlsym(lib, "rtcIntersect1"))) return 2;
   if (!(*(void **)&occluded1 = dlsym(lib, "rtcOccluded1"))) return 2;
   if (!(*(void **)&intersect16 = dlsym(lib, "rtcIntersect16"))) return 2;
@@ -208,7 +209,8 @@ int main(int argc, char **argv) {
   const char *kinds[] = {"camera", "camera_rows", "incoherent", "shadow", "bounce", "light",
                          "wave_bounce", "wave_shadow"};
   const int n_kinds = sizeof kinds / sizeof kinds[0];
-  printf("Embree %d (%s), %llu triangles, build quality %s, %d rounds, Mrays/s by thread CPU time\n",
+  printf("Embree %d (%s), %llu triangles, build quality %s, %d rounds, "
+         "Mrays/s by thread CPU time\n",
          EMBREE_MAJOR, argv[2], (unsigned long long)nt, quality ? quality : "1 (default)", rounds);
   unsigned coherent = EMBREE_MAJOR == 3 ? 1u : 1u << 16;
   for (int k = 0; k < n_kinds; k++) {

@@ -265,7 +265,7 @@ fn render_rows<A: Accel>(
 /// sample comes first from the stream, and only with a lens: pinhole
 /// images keep their random numbers). Field by field: a ray built whole
 /// and copied went through the stack, its direction stored in two parts
-/// and reloaded in one (a stalled store forwarding, 1-3% of a frame).
+/// and reloaded in one (a stalled store forwarding, 1-6% of a frame).
 #[inline(always)]
 fn camera_sample(
     camera: &Camera,
