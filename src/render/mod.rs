@@ -376,11 +376,12 @@ fn render_row<A: Accel>(
                 let paths = pixels.len() * block as usize;
                 rays.resize(paths, Ray::new(Vec3::ZERO, Vec3::Z));
                 streams.resize(paths, Rng::new(0, 0));
-                let mut slots = rays.iter_mut().zip(streams.iter_mut());
-                for &p in pixels {
+                let per_pixel = rays
+                    .chunks_mut(block as usize)
+                    .zip(streams.chunks_mut(block as usize));
+                for (&p, (rays, streams)) in pixels.iter().zip(per_pixel) {
                     let x = columns.start + p as u32;
-                    for sample in i..i + block {
-                        let (ray, stream) = slots.next().expect("a slot for every path");
+                    for ((ray, stream), sample) in rays.iter_mut().zip(streams).zip(i..) {
                         camera_sample(camera, settings, (x, y, sample), ray, stream);
                     }
                 }
