@@ -20,7 +20,7 @@ fn cornell_where_streams_run() -> Option<(crate::scene::Scene, NativeBvh)> {
 }
 
 /// Occlusion streams answer as single rays do, ray for ray: full
-/// streams of random rays, short ones (walked alone from the root), the
+/// streams of random rays, short ones (down to one ray a node), the
 /// renderer's light rays, and rays that cannot be traced at all.
 #[test]
 fn occlusion_streams_answer_as_single_rays() {

@@ -257,13 +257,6 @@ pub unsafe fn walk<const ROBUST: bool, const ANY: bool, L: Leaves>(
 /// Most rays of one occlusion stream: one bit each in a `u64` mask.
 pub const STREAM: usize = 64;
 
-/// A stream's rays entering a node walk on alone (the single-ray kernel
-/// from that node) when there are this many or fewer: they would share
-/// little below it. 0, 1, 2, 4, 8 and 16 measured on random shadow rays,
-/// AVX2: 4 to 16 alike and best (CBbunny 1.3-1.4x single rays, maxplanck
-/// 1.0-1.05x; without the switch 1.2x and 0.9x).
-const STREAM_ALONE: u32 = 4;
-
 /// Occlusion of up to [`STREAM`] rays walking the tree together: each node
 /// is visited once for every ray of the stream that enters it and tested
 /// against those rays one by one (the single-ray slab test), and each hit
@@ -279,7 +272,7 @@ const STREAM_ALONE: u32 = 4;
 /// `t_max` at least as long as the highest ray in `active`.
 #[target_feature(enable = "avx2,fma,popcnt,lzcnt,bmi1,bmi2")]
 pub unsafe fn any_stream<const ROBUST: bool, L: Leaves>(
-    cpu: Avx2,
+    _cpu: Avx2,
     tree: &Tree,
     rays: &[BoxRay],
     t_max: &[f32],
@@ -298,26 +291,7 @@ pub unsafe fn any_stream<const ROBUST: bool, L: Leaves>(
         let (mut current, mut mask) = (0 as ChildRef, active);
         loop {
             mask &= !blocked;
-            if mask != 0 && mask.count_ones() <= STREAM_ALONE && !is_leaf(current) {
-                // Too few rays left to share nodes: each walks on alone.
-                let mut rest = mask;
-                while rest != 0 {
-                    let i = rest.trailing_zeros() as usize;
-                    rest &= rest - 1;
-                    let (ray, t) = (rays.get_unchecked(i), *t_max.get_unchecked(i));
-                    if walk::<ROBUST, true, L>(
-                        cpu,
-                        tree,
-                        ray,
-                        &mut { t },
-                        &mut leaves(i),
-                        work,
-                        current,
-                    ) {
-                        blocked |= 1 << i;
-                    }
-                }
-            } else if mask != 0 {
+            if mask != 0 {
                 if !is_leaf(current) {
                     // SAFETY: as in `closest`.
                     let node = tree.node_unchecked(current);
@@ -346,12 +320,11 @@ pub unsafe fn any_stream<const ROBUST: bool, L: Leaves>(
                     // largest) deepest, so the smallest is walked first, as
                     // single-ray any hit does.
                     for (c, &rays_in) in entering.iter().enumerate() {
-                        if rays_in != 0 {
-                            // SAFETY: every level leaves at most seven entries
-                            // and the depth is bounded by MAX_DEPTH.
-                            stack.add(top).write((node.child[c], rays_in));
-                            top += 1;
-                        }
+                        // SAFETY: every level leaves at most seven entries
+                        // and the depth is bounded by MAX_DEPTH; a child no
+                        // ray enters is written and overwritten.
+                        stack.add(top).write((node.child[c], rays_in));
+                        top += usize::from(rays_in != 0);
                     }
                 } else {
                     let (first, count) = (leaf_first(current), leaf_count(current));
@@ -389,7 +362,7 @@ pub unsafe fn any_stream<const ROBUST: bool, L: Leaves>(
 /// As [`any_stream`]; `leaves` as long as `rays`.
 #[target_feature(enable = "avx2,fma,popcnt,lzcnt,bmi1,bmi2")]
 pub unsafe fn closest_stream<const ROBUST: bool, L: Leaves>(
-    cpu: Avx2,
+    _cpu: Avx2,
     tree: &Tree,
     rays: &[BoxRay],
     t_max: &mut [f32],
@@ -405,24 +378,7 @@ pub unsafe fn closest_stream<const ROBUST: bool, L: Leaves>(
         let mut found = 0u64;
         let (mut current, mut mask) = (0 as ChildRef, active);
         loop {
-            if mask != 0 && mask.count_ones() <= STREAM_ALONE && !is_leaf(current) {
-                let mut rest = mask;
-                while rest != 0 {
-                    let i = rest.trailing_zeros() as usize;
-                    rest &= rest - 1;
-                    if walk::<ROBUST, false, L>(
-                        cpu,
-                        tree,
-                        rays.get_unchecked(i),
-                        t_max.get_unchecked_mut(i),
-                        leaves.get_unchecked_mut(i),
-                        work,
-                        current,
-                    ) {
-                        found |= 1 << i;
-                    }
-                }
-            } else if mask != 0 {
+            if mask != 0 {
                 if !is_leaf(current) {
                     // SAFETY: as in `closest`.
                     let node = tree.node_unchecked(current);
@@ -451,12 +407,11 @@ pub unsafe fn closest_stream<const ROBUST: bool, L: Leaves>(
                     for place in 0..WIDTH {
                         let c = node.ordered(octant, place);
                         let rays_in = entering[c];
-                        if rays_in != 0 {
-                            // SAFETY: every level leaves at most eight
-                            // entries and the depth is bounded by MAX_DEPTH.
-                            stack.add(top).write((node.child[c], rays_in));
-                            top += 1;
-                        }
+                        // SAFETY: every level leaves at most eight entries
+                        // and the depth is bounded by MAX_DEPTH; a child no
+                        // ray enters is written and overwritten.
+                        stack.add(top).write((node.child[c], rays_in));
+                        top += usize::from(rays_in != 0);
                     }
                 } else {
                     let (first, count) = (leaf_first(current), leaf_count(current));
