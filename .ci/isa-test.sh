@@ -2,7 +2,8 @@
 # The paths other CPUs take, on this one: the suite's backend agreement,
 # packet and image-identity tests again with the instruction set capped
 # (HYBRID_ISA), so that an AVX-512 machine also proves what an AVX2-only
-# CPU runs (native 8-ray packets, Embree's AVX2 kernels) and what a CPU
+# CPU runs (native AVX2 packets of 8 and, in the renderer, 16 rays;
+# Embree's AVX2 kernels) and what a CPU
 # without AVX2 runs (native scalar kernels, Embree's SSE4.2 kernels). On a
 # CPU below a cap, the cap changes nothing and the run repeats the suite's.
 set -euo pipefail

@@ -266,14 +266,14 @@ impl RenderArgs {
     }
 
     /// The backend `--accel` chose, with its own flags; native's batches
-    /// in packets of [`RENDER_PACKET_LANES`].
+    /// in packets of [`render_packet_lanes`].
     pub fn backend(&self) -> BackendConfig {
         let native = NativeOptions {
             triangle: self.triangle,
             method: self.build,
             max_leaf: self.leaf,
             simd: !self.scalar,
-            packet_lanes: RENDER_PACKET_LANES,
+            packet_lanes: render_packet_lanes(),
         };
         let embree = EmbreeOptions {
             quality: self.quality,
@@ -620,15 +620,23 @@ fn same_file(a: &Path, b: &Path) -> bool {
     }
 }
 
-/// Rays per native packet in the renderer: eight (AVX2 lanes) even where
-/// the CPU runs sixteen. Measured on Sapphire Rapids, one thread pinned,
-/// `render -t 1 -r 160 120 -s 256 -m 5 -l 1 --seed 3`, six interleaved
-/// runs, median seconds with packets of 16 / of 8 / without packets:
-/// maxplanck 1.125 / 1.03 / 1.015, CBbunny 1.87 / 1.78 / 1.825. Sixteen-ray
-/// packets trace camera rays three times as fast as single rays in
-/// isolation (`hybrid bench --batched`), yet cost the frame 5-11%; the
-/// likely cause is the 512-bit unit's warm-up and clock when short bursts
-/// of AVX-512 alternate with scalar shading. Eight-ray packets keep the
-/// frame within ±3% of single rays; `hybrid bench` and the report keep
-/// measuring both widths.
-pub const RENDER_PACKET_LANES: usize = 8;
+/// Rays per native packet in the renderer: sixteen (AVX-512 lanes, or two
+/// AVX2 registers a value), except eight where AVX-512 throttles
+/// ([`Isa::wide_vectors_throttle`]). On Sapphire Rapids, one thread
+/// pinned, `render -t 1 -r 160 120 -s 256 -m 5 -l 1 --seed 3`, six
+/// interleaved runs, median seconds with packets of 16 / of 8 / without
+/// packets: maxplanck 1.125 / 1.03 / 1.015, CBbunny 1.87 / 1.78 / 1.825:
+/// short bursts of 512-bit work between scalar shading cost the frame
+/// 5-11% there. On Zen 4 (stop 55, four alternating rounds, minimum
+/// seconds, 8 -> 16): CBempty 1.02 -> 0.903, maxplanck 0.707 -> 0.663,
+/// banana 0.407 -> 0.390, CBbunny 1.38 -> 1.33; with `HYBRID_ISA=avx2`
+/// (two registers a value against one) 1-4% faster. Packets give every
+/// ray the single-ray kernel's answer at either width, so the image does
+/// not depend on this choice.
+pub fn render_packet_lanes() -> usize {
+    if Isa::wide_vectors_throttle() {
+        8
+    } else {
+        16
+    }
+}
