@@ -307,11 +307,14 @@ fn converged(a: &Adaptive, n: u32, s1: f64, s2: f64) -> bool {
 /// Paths a wave of `--waves` holds at most: a row's pixels times as many
 /// of their samples as fit, or (a row wider than this over
 /// [`SIDE_BY_SIDE`]) an even piece of the row times that many samples. A
-/// paused path is a few hundred bytes, so a wave's state stays within
-/// half a MB per thread, in the core's L2 cache, however wide the row;
-/// 1024 measured faster than 256, 512, 2048, 4096 and 16384
-/// (docs/experiments.md, "Wave size, again").
-pub const WAVE_PATHS: usize = 1024;
+/// wave in arrays holds about 0.6 KB a path with its rays, hits and
+/// tape, so about 1.2 MB per thread however wide the row. On Sapphire
+/// Rapids, before the arrays, 1024 measured faster than 256, 512, 2048,
+/// 4096 and 16384 (docs/experiments.md, "Wave size, again"); on Zen 4 with
+/// the arrays (stop 55) 2048 took 4-10% off the meshes' frames (fewer,
+/// fuller batches once a wave's paths thin out) and left the Cornell boxes
+/// level; 4096 a little more on Zen 4, beyond Sapphire Rapids' 2 MB L2.
+pub const WAVE_PATHS: usize = 2048;
 
 /// Samples of each pixel a wave holds side by side at least, where the
 /// batch has them: a row wider than a wave's paths over this goes in
