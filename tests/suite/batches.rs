@@ -20,7 +20,7 @@ use hybrid::render::camera::ThinLens;
 use hybrid::render::integrator::{
     arrays_take, Background, BounceView, DirectEstimator, Integrator, PathSettings, Shading,
 };
-use hybrid::render::{render, Adaptive, Batching, RenderSettings, Silent};
+use hybrid::render::{render, Adaptive, Batching, RenderSettings, Silent, WAVE_PATHS};
 use hybrid::scene::Scene;
 
 use crate::common::scene_or_skip;
@@ -564,8 +564,9 @@ fn waves_say_where_their_time_went() {
 }
 
 /// A wave renderer says the most memory one thread's wave held (its
-/// paths, rays, hits and shadow tape, docs/design.md: about 1.2 MB for
-/// waves of up to 2048 paths): some, within 2 MiB however wide the row,
+/// paths, rays, hits and shadow tape, docs/design.md: about 0.6 KB a
+/// path, 1.2 MB for waves of 2048 paths): some, within 1 KiB a path of a
+/// full wave however wide the row,
 /// and the same on one thread as on three (each row's lists depend on its
 /// own paths only).
 #[test]
@@ -592,10 +593,12 @@ fn waves_say_how_much_memory_a_thread_held() {
     let three = render(&scene, &native, &settings(3), &Silent)
         .wave_times
         .peak_bytes;
-    // 1920 paths a wave (twelve samples of the row's 160 pixels), each
-    // its state and at least a camera ray.
-    assert!(one > 1920 * 32, "{one} bytes");
-    assert!(one <= 2 << 20, "{one} bytes a thread");
+    // A wave holds as many samples of the row's 160 pixels as fit, each
+    // path its state and at least a camera ray.
+    let paths = WAVE_PATHS / 160 * 160;
+    let bound = WAVE_PATHS * 1024;
+    assert!(one > paths * 32, "{one} bytes");
+    assert!(one <= bound, "{one} bytes a thread");
     assert_eq!(one, three, "one thread against three");
     // A row three times as wide as a wave goes in pieces: the same bound.
     let wide = RenderSettings {
@@ -607,10 +610,7 @@ fn waves_say_how_much_memory_a_thread_held() {
     let wide = render(&scene, &native, &wide, &Silent)
         .wave_times
         .peak_bytes;
-    assert!(
-        wide <= 2 << 20,
-        "{wide} bytes a thread for a 3000-pixel row"
-    );
+    assert!(wide <= bound, "{wide} bytes a thread for a 3000-pixel row");
 }
 
 /// Every SIMD intrinsic is inlined into the `#[target_feature]` kernel that
