@@ -307,8 +307,8 @@ fn converged(a: &Adaptive, n: u32, s1: f64, s2: f64) -> bool {
 /// Paths a wave of `--waves` holds at most: a row's pixels times as many
 /// of their samples as fit, or (a row wider than this over
 /// [`SIDE_BY_SIDE`]) an even piece of the row times that many samples. A
-/// wave in arrays holds about 0.6 KB a path with its rays, hits and
-/// tape, so about 1.2 MB per thread however wide the row. On Sapphire
+/// wave in arrays holds up to about 0.85 KB a path with its rays, hits
+/// and tape, so up to about 1.7 MB per thread however wide the row. On Sapphire
 /// Rapids, before the arrays, 1024 measured faster than 256, 512, 2048,
 /// 4096 and 16384 (docs/experiments.md, "Wave size, again"); on Zen 4 with
 /// the arrays (stop 55) 2048 took 4-10% off the meshes' frames (fewer,
@@ -318,8 +318,16 @@ pub const WAVE_PATHS: usize = 2048;
 
 /// Samples of each pixel a wave holds side by side at least, where the
 /// batch has them: a row wider than a wave's paths over this goes in
-/// pieces.
-pub const SIDE_BY_SIDE: u32 = 4;
+/// pieces (a wave of [`WAVE_PATHS`] then holds eight pixels of 256
+/// samples). A pixel's samples start along nearly one camera ray, so the
+/// more of them travel together, the tighter a wave's camera packets,
+/// the more its bounce rays share origins, and the more a wave's paths
+/// all hit or all miss (a wave over the background ends at its camera
+/// rays; one over the model stays full). On Zen 4 (stop 56), 256 against
+/// 4 took 14% off maxplanck's frame, 7% off sky/bunny's and 5% off
+/// cow's at 256 spp, on Embree as on native, and left the Cornell boxes
+/// level (docs/experiments.md).
+pub const SIDE_BY_SIDE: u32 = 256;
 
 /// Paths a wave holds in the other modes, where only its camera rays are
 /// traced together: Embree's camera packets measured 4% faster in waves

@@ -564,8 +564,8 @@ fn waves_say_where_their_time_went() {
 }
 
 /// A wave renderer says the most memory one thread's wave held (its
-/// paths, rays, hits and shadow tape, docs/design.md: about 0.6 KB a
-/// path, 1.2 MB for waves of 2048 paths): some, within 1 KiB a path of a
+/// paths, rays, hits and shadow tape, docs/design.md: up to about 0.85 KB
+/// a path, 1.7 MB for waves of 2048 paths): some, within 1 KiB a path of a
 /// full wave however wide the row,
 /// and the same on one thread as on three (each row's lists depend on its
 /// own paths only).
@@ -593,9 +593,10 @@ fn waves_say_how_much_memory_a_thread_held() {
     let three = render(&scene, &native, &settings(3), &Silent)
         .wave_times
         .peak_bytes;
-    // A wave holds as many samples of the row's 160 pixels as fit, each
-    // path its state and at least a camera ray.
-    let paths = WAVE_PATHS / 160 * 160;
+    // A wave holds 16 samples of half the row's 160 pixels (the most
+    // pixels of 16 samples that fit, in even pieces), each path its state
+    // and at least a camera ray.
+    let paths = 80 * 16;
     let bound = WAVE_PATHS * 1024;
     assert!(one > paths * 32, "{one} bytes");
     assert!(one <= bound, "{one} bytes a thread");
