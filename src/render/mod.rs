@@ -308,12 +308,14 @@ fn converged(a: &Adaptive, n: u32, s1: f64, s2: f64) -> bool {
 /// of their samples as fit, or (a row wider than this over
 /// [`SIDE_BY_SIDE`]) an even piece of the row times that many samples. A
 /// wave in arrays holds up to about 0.85 KB a path with its rays, hits
-/// and tape, so up to about 1.7 MB per thread however wide the row. On Sapphire
-/// Rapids, before the arrays, 1024 measured faster than 256, 512, 2048,
-/// 4096 and 16384 (docs/experiments.md, "Wave size, again"); on Zen 4 with
-/// the arrays (stop 55) 2048 took 4-10% off the meshes' frames (fewer,
-/// fuller batches once a wave's paths thin out) and left the Cornell boxes
-/// level; 4096 a little more on Zen 4, beyond Sapphire Rapids' 2 MB L2.
+/// and tape, so up to about 1.7 MB per thread however wide the row. On
+/// Sapphire Rapids, before the arrays, 1024 measured faster than 256,
+/// 512, 2048, 4096 and 16384 (docs/experiments.md, "Wave size, again"); on
+/// Zen 4 with the arrays (stop 55) 2048 took 4-10% off the meshes' frames
+/// and left the Cornell boxes level; 4096 a little more on Zen 4, beyond
+/// Sapphire Rapids' 2 MB L2. What a larger wave bought was mostly more of
+/// each pixel's samples side by side (stop 56, [`SIDE_BY_SIDE`]), not
+/// fuller batches: keeping them full by regeneration measured slower.
 pub const WAVE_PATHS: usize = 2048;
 
 /// Samples of each pixel a wave holds side by side at least, where the

@@ -593,10 +593,11 @@ fn waves_say_how_much_memory_a_thread_held() {
     let three = render(&scene, &native, &settings(3), &Silent)
         .wave_times
         .peak_bytes;
-    // A wave holds 16 samples of half the row's 160 pixels (the most
-    // pixels of 16 samples that fit, in even pieces), each path its state
-    // and at least a camera ray.
-    let paths = 80 * 16;
+    // A wave holds the 16 samples of an even piece of the row's 160
+    // pixels, as many as fit, each path its state and at least a camera
+    // ray.
+    let pieces = 160usize.div_ceil(WAVE_PATHS / 16);
+    let paths = 160usize.div_ceil(pieces) * 16;
     let bound = WAVE_PATHS * 1024;
     assert!(one > paths * 32, "{one} bytes");
     assert!(one <= bound, "{one} bytes a thread");
