@@ -1,13 +1,16 @@
 //! Developer tool: builds one scene's BVH repeatedly, for profilers
 //! (`valgrind --tool=callgrind`) and build timing. By default native and
-//! Embree builds alternate and both medians are printed with their ratio;
-//! `ONLY=native` or `ONLY=embree` builds one backend (for profilers).
+//! Embree builds alternate and both medians are printed with their ratio.
+//! The native tree as the top-down splits leave it (`--build
+//! sah-top-down`) is timed too: the moves' share of a native build.
+//! `ONLY=native`, `ONLY=embree` or `ONLY=top-down` builds one (for
+//! profilers).
 //! `THREADS=n` uses n threads (default 1); the scene "cloud" is the
 //! report's generated 1.31 M-triangle mesh.
 //! `cargo run --release --example build_profile -- scene.dae [repeats]`
 use std::time::Instant;
 
-use hybrid::accel::BackendConfig;
+use hybrid::accel::{Accel, BackendConfig};
 use hybrid::measure::{on_threads, Measured};
 use hybrid::scene::{collada, NormalMode};
 
@@ -26,18 +29,22 @@ fn main() {
     let configs: Vec<(&str, BackendConfig)> = [
         ("native", BackendConfig::NATIVE),
         ("embree", BackendConfig::EMBREE.with_threads(threads)),
+        ("top-down", BackendConfig::NATIVE_TOP_DOWN),
     ]
     .into_iter()
     .filter(|(name, _)| only.as_deref().is_none_or(|o| o == *name))
     .collect();
     on_threads(threads, || {
         let mut times = vec![Vec::new(); configs.len()];
+        let mut sah = vec![None; configs.len()];
         for round in 0..repeats + 1 {
             for (i, (_, config)) in configs.iter().enumerate() {
                 let t = Instant::now();
-                std::hint::black_box(config.build(&scene).expect("builds"));
+                let accel = std::hint::black_box(config.build(&scene).expect("builds"));
+                let elapsed = t.elapsed();
+                sah[i] = accel.stats().tree.map(|t| t.sah_cost);
                 if round > 0 {
-                    times[i].push(t.elapsed().as_secs_f64() * 1e3);
+                    times[i].push(elapsed.as_secs_f64() * 1e3);
                 }
             }
         }
@@ -48,9 +55,13 @@ fn main() {
         let line: Vec<String> = configs
             .iter()
             .zip(&medians)
-            .map(|((name, _), m)| format!("{name} {m:.2} ms"))
+            .zip(&sah)
+            .map(|(((name, _), m), sah)| match sah {
+                Some(c) => format!("{name} {m:.2} ms (SAH cost {c:.2})"),
+                None => format!("{name} {m:.2} ms"),
+            })
             .collect();
-        let ratio = if medians.len() == 2 {
+        let ratio = if medians.len() >= 2 && only.is_none() {
             format!(" (embree/native {:.2}x)", medians[1] / medians[0])
         } else {
             String::new()

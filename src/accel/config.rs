@@ -174,6 +174,12 @@ impl BackendConfig {
         packet_lanes: 16,
         ..NativeOptions::DEFAULT
     });
+    /// The native BVH as the top-down SAH splits leave it, no subtree
+    /// moved: what moving them buys.
+    pub const NATIVE_TOP_DOWN: BackendConfig = BackendConfig::Native(NativeOptions {
+        method: BuildMethod::SahTopDown,
+        ..NativeOptions::DEFAULT
+    });
     /// The native BVH built by median splits: the baseline the SAH is
     /// measured against.
     pub const NATIVE_MEDIAN: BackendConfig = BackendConfig::Native(NativeOptions {
@@ -331,6 +337,7 @@ pub fn build_variants() -> Vec<BackendConfig> {
     present(&[
         BackendConfig::NATIVE,
         BackendConfig::NATIVE_WATERTIGHT,
+        BackendConfig::NATIVE_TOP_DOWN,
         BackendConfig::NATIVE_MEDIAN,
         BackendConfig::EMBREE_LOW,
         BackendConfig::EMBREE,

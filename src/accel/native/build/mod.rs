@@ -1,11 +1,12 @@
 //! The builder of the 8-wide tree: binned SAH (Wald 2007, "On fast
 //! construction of SAH-based bounding volume hierarchies") over primitive
-//! boxes, forming wide nodes directly the way Embree's wide builders do:
-//! a node starts with one child holding all its primitives and keeps
-//! splitting the child with the largest surface area until it has eight
-//! or none can be split. Every split is a binary SAH split, so the tree is
-//! the binary SAH tree with its levels grouped; its SAH cost is reported
-//! as the binary tree's.
+//! boxes builds a binary tree top-down; moving subtrees to where they cost
+//! least ([`reinsert`]) then repairs what the greedy top-down splits got
+//! wrong; the binary levels are then grouped into wide nodes the way
+//! Embree's wide builders form them: a node starts with one child holding
+//! all its primitives and keeps splitting the child with the largest
+//! surface area until it has eight or none can be split. The SAH cost is
+//! reported as the binary tree's.
 //!
 //! References are partitioned in place in one array; subtrees above
 //! [`PARALLEL_THRESHOLD`] primitives are built in parallel (rayon), each
@@ -14,21 +15,25 @@
 use glam::{Vec3A, Vec4};
 use rayon::prelude::*;
 
-use super::node::{is_leaf, leaf, ChildRef, Node8, EMPTY, WIDTH};
+use super::node::{leaf, ChildRef, Node8, EMPTY, WIDTH};
 use crate::geom::Bounds;
 
 /// How splits are chosen.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
 pub enum BuildMethod {
-    /// Binned SAH over all three axes.
+    /// Binned SAH over all three axes, then subtrees moved to where they
+    /// cost least.
     #[default]
     Sah,
+    /// The binned SAH tree as the top-down splits leave it: what moving
+    /// subtrees is measured against.
+    SahTopDown,
     /// Object median on the widest centroid axis: the baseline the SAH is
     /// measured against.
     Median,
 }
 
-crate::choice!(BuildMethod { Sah => "sah", Median => "median" });
+crate::choice!(BuildMethod { Sah => "sah", SahTopDown => "sah-top-down", Median => "median" });
 
 /// Cost of a binary inner node relative to one leaf block test, in the
 /// SAH cost the tree reports (the classical binary measure).
@@ -197,7 +202,6 @@ struct Record {
     geom: Aabb,
     cent: Aabb,
     split: Option<Split>,
-    binary_depth: usize,
 }
 
 impl Record {
@@ -206,25 +210,13 @@ impl Record {
     }
 }
 
-/// Tree statistics summed over subtrees.
+/// The wide tree's counts, gathered while it is formed.
 #[derive(Clone, Copy, Default)]
 struct Stats {
     nodes: usize,
     leaves: usize,
     depth: usize,
     binary_depth: usize,
-    /// Unnormalized SAH cost (half areas).
-    sah: f64,
-}
-
-impl Stats {
-    fn add_child(&mut self, o: &Stats) {
-        self.nodes += o.nodes;
-        self.leaves += o.leaves;
-        self.depth = self.depth.max(o.depth);
-        self.binary_depth = self.binary_depth.max(o.binary_depth);
-        self.sah += o.sah;
-    }
 }
 
 #[derive(Clone, Copy)]
@@ -266,22 +258,31 @@ pub fn build(boxes: &[Bounds], max_leaf: usize, split_cost: f32, method: BuildMe
         geom,
         cent,
         split: None,
-        binary_depth: 0,
     };
     root.split = find_split(&refs, &root, &settings);
+    let mut tree = BinaryTree::grow(&mut refs, root, &settings);
+    if method == BuildMethod::Sah {
+        reinsert::optimize(&mut tree);
+    }
     let mut nodes = super::memory::reserve(refs.len() / 4 + 1);
-    let (r, stats) = if root.split.is_some() {
-        subtree(&mut refs, 0, root, 1, &settings, &mut nodes)
-    } else {
+    let mut stats = Stats::default();
+    let root = &tree.nodes[tree.root as usize];
+    if root.is_leaf() {
         // A single leaf still gets a root node, so traversal always starts
         // at node 0.
-        let (r, mut stats) = make_leaf(&root);
-        nodes.push(Node8::new(&[(r, geom.bounds())]));
-        stats.nodes = 1;
-        stats.depth = 1;
-        (0, stats)
-    };
-    debug_assert_eq!(r, 0, "the root is node 0");
+        nodes.push(Node8::new(&[(
+            leaf(root.kids[0], root.count),
+            geom.bounds(),
+        )]));
+        stats = Stats {
+            nodes: 1,
+            leaves: 1,
+            depth: 1,
+            binary_depth: 0,
+        };
+    } else {
+        collapse(&tree, tree.root, 1, 0, &mut nodes, &mut stats);
+    }
     let root_area = geom.half_area() as f64;
     BuiltTree {
         nodes,
@@ -292,7 +293,7 @@ pub fn build(boxes: &[Bounds], max_leaf: usize, split_cost: f32, method: BuildMe
             depth: stats.depth,
             binary_depth: stats.binary_depth,
             sah_cost: if root_area > 0.0 {
-                stats.sah / root_area
+                tree.sah() / root_area
             } else {
                 0.0
             },
@@ -319,183 +320,65 @@ fn centroid_bounds(refs: &[PrimRef]) -> Aabb {
     cent
 }
 
-fn make_leaf(rec: &Record) -> (ChildRef, Stats) {
-    let n = rec.len();
-    let stats = Stats {
-        leaves: 1,
-        binary_depth: rec.binary_depth,
-        sah: rec.geom.half_area() as f64 * leaf_cost(n) as f64,
-        ..Stats::default()
-    };
-    // Slots of `prim_order`; `NativeBvh` later points leaves at their data.
-    (leaf(rec.start as u32, n as u32), stats)
-}
-
-/// Builds the wide node for `rec` (which has a split) and everything
-/// below it, appending nodes to `out`; `refs` is the whole array.
-fn subtree(
-    refs: &mut [PrimRef],
-    base: usize,
-    rec: Record,
+/// Groups the binary levels under inner node `n` into one wide node (its
+/// `depth`; `n` at binary depth `binary_depth`) and everything below,
+/// depth first, always expanding the child of largest area (Embree's rule
+/// for wide nodes).
+fn collapse(
+    tree: &BinaryTree,
+    n: u32,
     depth: usize,
-    settings: &Settings,
+    binary_depth: usize,
     out: &mut Vec<Node8>,
-) -> (ChildRef, Stats) {
-    // refs[..] covers rec's range offset by `base`.
-    let local = |r: &Record| (r.start - base)..(r.end - base);
-    let mut stats = Stats {
-        nodes: 1,
-        depth,
-        ..Stats::default()
-    };
-    let (children, count) = if rec.len() >= HALVES_ABOVE {
-        // Too large to split serially: one split, then each side forms
-        // half the node on its own (concurrently). A fixed size rule, so
-        // the tree does not depend on the thread count; the binary splits
-        // are the same as largest-first would make, only grouped
-        // differently at these top levels.
-        stats.sah += rec.geom.half_area() as f64 * TRAVERSAL_COST as f64;
-        let (mut l, mut r) = apply_split(&mut refs[local(&rec)], &rec);
-        let (left, right) = refs.split_at_mut(l.end - base);
-        (l.split, r.split) = rayon::join(
-            || find_split(left, &l, settings),
-            || find_split(right, &r, settings),
-        );
-        let ((lc, ln, ls), (rc, rn, rs)) = rayon::join(
-            || form(left, l.start, l, WIDTH / 2, settings),
-            || form(right, r.start, r, WIDTH / 2, settings),
-        );
-        stats.sah += ls + rs;
-        let mut children = lc;
-        children[ln..ln + rn].copy_from_slice(&rc[..rn]);
-        (children, ln + rn)
-    } else {
-        let (children, count, sah) = form(refs, base, rec, WIDTH, settings);
-        stats.sah += sah;
-        (children, count)
-    };
-    let children = &children[..count];
-    let me = out.len();
-    out.push(Node8::UNUSED);
-    let mut slots = [(EMPTY, Bounds::EMPTY); WIDTH];
-    if rec.len() >= PARALLEL_THRESHOLD && rayon::current_num_threads() > 1 {
-        // Disjoint slices of the references, one per child, in order.
-        let mut parts = Vec::with_capacity(children.len());
-        let mut rest = &mut refs[..];
-        let mut offset = base;
-        for c in children {
-            let (head, tail) = rest.split_at_mut(c.end - offset);
-            parts.push((head, offset, *c));
-            rest = tail;
-            offset = c.end;
-        }
-        let built: Vec<(ChildRef, Stats, Vec<Node8>)> = parts
-            .into_par_iter()
-            .map(|(part, part_base, c)| {
-                let mut nodes = Vec::new();
-                let (r, s) = child(part, part_base, c, depth + 1, settings, &mut nodes);
-                (r, s, nodes)
-            })
-            .collect();
-        for (slot, ((r, s, nodes), c)) in built.into_iter().zip(children).enumerate() {
-            let offset = out.len() as u32;
-            let relocate = |r: ChildRef| {
-                if r == EMPTY || is_leaf(r) {
-                    r
-                } else {
-                    r + offset
-                }
-            };
-            out.extend(nodes.into_iter().map(|mut n| {
-                n.child = n.child.map(relocate);
-                n
-            }));
-            slots[slot] = (relocate(r), c.geom.bounds());
-            stats.add_child(&s);
-        }
-    } else {
-        for (slot, c) in children.iter().enumerate() {
-            let (r, s) = child(&mut refs[local(c)], c.start, *c, depth + 1, settings, out);
-            slots[slot] = (r, c.geom.bounds());
-            stats.add_child(&s);
-        }
-    }
-    out[me] = Node8::new(&slots[..count]);
-    (me as ChildRef, stats)
-}
-
-/// Ranges at least this large form their node in two concurrent halves.
-const HALVES_ABOVE: usize = 65_536;
-
-/// Splits `rec` (its references are `refs`, which start at `base`) into
-/// at most `max` children, always splitting the child with the largest
-/// surface area next (Embree's rule for wide nodes). Returns the children
-/// in the order of their ranges, their count, and the SAH cost of the
-/// binary splits made (unnormalized).
-fn form(
-    refs: &mut [PrimRef],
-    base: usize,
-    rec: Record,
-    max: usize,
-    settings: &Settings,
-) -> ([Record; WIDTH], usize, f64) {
-    let local = |r: &Record| (r.start - base)..(r.end - base);
-    let mut sah = 0.0;
-    let mut children = [rec; WIDTH];
+    stats: &mut Stats,
+) -> ChildRef {
+    stats.nodes += 1;
+    stats.depth = stats.depth.max(depth);
+    let mut children = [(n, binary_depth); WIDTH];
     let mut count = 1;
-    while count < max {
+    while count < WIDTH {
         let Some(i) = (0..count)
-            .filter(|&i| children[i].split.is_some())
+            .filter(|&i| !tree.nodes[children[i].0 as usize].is_leaf())
             .max_by(|&a, &b| {
-                children[a]
-                    .geom
-                    .half_area()
-                    .total_cmp(&children[b].geom.half_area())
+                tree.area(children[a].0)
+                    .total_cmp(&tree.area(children[b].0))
             })
         else {
             break;
         };
-        let c = children[i];
-        sah += c.geom.half_area() as f64 * TRAVERSAL_COST as f64;
-        let (mut l, mut r) = apply_split(&mut refs[local(&c)], &c);
-        let (left, right) = (&refs[local(&l)], &refs[local(&r)]);
-        (l.split, r.split) = if c.len() >= PARALLEL_BINNING && rayon::current_num_threads() > 1 {
-            rayon::join(
-                || find_split(left, &l, settings),
-                || find_split(right, &r, settings),
-            )
-        } else {
-            (
-                find_split(left, &l, settings),
-                find_split(right, &r, settings),
-            )
-        };
+        let (c, d) = children[i];
+        let [a, b] = tree.nodes[c as usize].kids;
         children.copy_within(i + 1..count, i + 2);
-        children[i] = l;
-        children[i + 1] = r;
+        children[i] = (a, d + 1);
+        children[i + 1] = (b, d + 1);
         count += 1;
     }
-    (children, count, sah)
-}
-
-/// A child of a node: a leaf, or the subtree under it.
-fn child(
-    refs: &mut [PrimRef],
-    base: usize,
-    rec: Record,
-    depth: usize,
-    settings: &Settings,
-    out: &mut Vec<Node8>,
-) -> (ChildRef, Stats) {
-    match rec.split {
-        None => make_leaf(&rec),
-        Some(_) => subtree(refs, base, rec, depth, settings, out),
+    let me = out.len();
+    out.push(Node8::UNUSED);
+    let mut slots = [(EMPTY, Bounds::EMPTY); WIDTH];
+    for (slot, &(c, d)) in slots.iter_mut().zip(&children[..count]) {
+        let node = &tree.nodes[c as usize];
+        let r = if node.is_leaf() {
+            stats.leaves += 1;
+            stats.binary_depth = stats.binary_depth.max(d);
+            // Slots of `prim_order`; `NativeBvh` later points leaves at
+            // their data.
+            leaf(node.kids[0], node.count)
+        } else {
+            collapse(tree, c, depth + 1, d, out, stats)
+        };
+        *slot = (r, node.bounds.bounds());
     }
+    out[me] = Node8::new(&slots[..count]);
+    me as ChildRef
 }
 
+mod binary;
+mod reinsert;
 mod split;
 
-use self::split::{apply_split, find_split, PARALLEL_BINNING};
+use self::binary::BinaryTree;
+use self::split::find_split;
 
 #[cfg(test)]
 mod tests;

@@ -24,10 +24,10 @@ pub(super) fn find_split(refs: &[PrimRef], rec: &Record, settings: &Settings) ->
         BuildMethod::Median => (n > settings.max_leaf).then_some(Split::Median { axis: widest }),
         // One block holds the whole range: every way to halve it is tried
         // (at most seven), cheaper than binning and exact.
-        BuildMethod::Sah if n <= LEAF_BLOCK && n <= settings.max_leaf => {
+        BuildMethod::Sah | BuildMethod::SahTopDown if n <= LEAF_BLOCK && n <= settings.max_leaf => {
             small_split(refs, rec, settings.split_cost)
         }
-        BuildMethod::Sah => {
+        BuildMethod::Sah | BuildMethod::SahTopDown => {
             let best = binned_sah(refs, rec);
             let leaf = rec.geom.half_area() * leaf_cost(n);
             match best {
@@ -257,7 +257,6 @@ pub(super) fn apply_split(refs: &mut [PrimRef], rec: &Record) -> (Record, Record
         geom,
         cent,
         split: None,
-        binary_depth: rec.binary_depth + 1,
     };
     if let Some(Split::Binned {
         axis,

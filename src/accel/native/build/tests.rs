@@ -1,8 +1,9 @@
 //! The builder's tests: SAH against median splits, parallel against
 //! sequential builds, leaf layout.
 
+use super::split::PARALLEL_BINNING;
 use super::*;
-use crate::accel::native::node::{leaf_count, leaf_first};
+use crate::accel::native::node::{is_leaf, leaf_count, leaf_first};
 use glam::Vec3;
 
 fn random_boxes(n: usize) -> Vec<Bounds> {
@@ -144,4 +145,47 @@ fn parallel_and_sequential_builds_give_the_same_tree() {
     for (x, y) in a.nodes.iter().zip(&b.nodes) {
         assert_eq!(x.child, y.child);
     }
+}
+
+/// A room as [`room`] with a model standing on its floor (1000 small
+/// boxes): the floor's centroid lies among the model's.
+fn room_with_model() -> Vec<Bounds> {
+    let mut boxes = room();
+    boxes.truncate(12);
+    boxes.extend(random_boxes(1000).iter().map(|b| {
+        let at = Vec3::new(-0.4, -1.0, -0.4);
+        Bounds {
+            min: at + b.min * 0.08,
+            max: at + b.max * 0.08,
+        }
+    }));
+    boxes
+}
+
+#[test]
+fn moving_subtrees_lowers_the_cost_of_a_room() {
+    let cost = |boxes: &[Bounds], method| {
+        let tree = build(boxes, 4, SPLIT_COST, method);
+        assert_eq!(leaf_sizes(&tree).0, vec![1; boxes.len()]);
+        tree.shape.sah_cost
+    };
+    let boxes = room_with_model();
+    let (moved, top_down) = (
+        cost(&boxes, BuildMethod::Sah),
+        cost(&boxes, BuildMethod::SahTopDown),
+    );
+    assert!(
+        moved < top_down,
+        "room: SAH cost {moved:.3} with subtrees moved, {top_down:.3} top-down"
+    );
+    // Never worse, even where the top-down tree has nothing to repair.
+    let boxes = random_boxes(5000);
+    let (moved, top_down) = (
+        cost(&boxes, BuildMethod::Sah),
+        cost(&boxes, BuildMethod::SahTopDown),
+    );
+    assert!(
+        moved <= top_down,
+        "random boxes: SAH cost {moved:.3} with subtrees moved, {top_down:.3} top-down"
+    );
 }
