@@ -42,7 +42,7 @@ fn main() {
                 let t = Instant::now();
                 let accel = std::hint::black_box(config.build(&scene).expect("builds"));
                 let elapsed = t.elapsed();
-                sah[i] = accel.stats().tree.map(|t| t.sah_cost);
+                sah[i] = accel.stats().tree.map(|t| (t.sah_cost, t.wide_sah_cost));
                 if round > 0 {
                     times[i].push(elapsed.as_secs_f64() * 1e3);
                 }
@@ -57,7 +57,7 @@ fn main() {
             .zip(&medians)
             .zip(&sah)
             .map(|(((name, _), m), sah)| match sah {
-                Some(c) => format!("{name} {m:.2} ms (SAH cost {c:.2})"),
+                Some((b, w)) => format!("{name} {m:.2} ms (SAH cost {b:.2} binary, {w:.2} wide)"),
                 None => format!("{name} {m:.2} ms"),
             })
             .collect();

@@ -174,8 +174,8 @@ impl BackendConfig {
         packet_lanes: 16,
         ..NativeOptions::DEFAULT
     });
-    /// The native BVH as the top-down SAH splits leave it, no subtree
-    /// moved: what moving them buys.
+    /// The native BVH as the top-down SAH splits leave it, grouped
+    /// largest child first: what the moves and the planned grouping buy.
     pub const NATIVE_TOP_DOWN: BackendConfig = BackendConfig::Native(NativeOptions {
         method: BuildMethod::SahTopDown,
         ..NativeOptions::DEFAULT

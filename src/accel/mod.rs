@@ -51,6 +51,8 @@ pub struct TreeFacts {
     pub depth: usize,
     /// SAH cost of the binary tree (see the native builder).
     pub sah_cost: f64,
+    /// SAH cost of the wide tree, a node test per wide node.
+    pub wide_sah_cost: f64,
 }
 
 /// What a backend reports about its acceleration structure, and the one
@@ -80,8 +82,8 @@ impl AccelStats {
     pub fn describe(&self) -> String {
         let shape = self.tree.map_or(String::new(), |t| {
             format!(
-                "{} nodes, {} leaves, depth {}, SAH cost {:.2}, ",
-                t.nodes, t.leaves, t.depth, t.sah_cost
+                "{} nodes, {} leaves, depth {}, SAH cost {:.2} (binary), {:.2} (wide), ",
+                t.nodes, t.leaves, t.depth, t.sah_cost, t.wide_sah_cost
             )
         });
         format!(

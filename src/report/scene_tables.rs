@@ -22,7 +22,8 @@ fn builds_table(r: &SceneResult) -> Table {
         ("memory_mib", "memory MiB".to_string()),
         ("nodes", "nodes".to_string()),
         ("depth", "depth".to_string()),
-        ("sah_cost", "SAH cost".to_string()),
+        ("sah_cost", "SAH cost (binary)".to_string()),
+        ("wide_sah_cost", "SAH cost (wide)".to_string()),
     ]);
     for b in &r.builds {
         let tree = |f: fn(&TreeFacts) -> Cell| b.stats.tree.as_ref().map_or(Cell::Empty, f);
@@ -36,6 +37,7 @@ fn builds_table(r: &SceneResult) -> Table {
             tree(|t| Cell::Count(t.nodes as u64)),
             tree(|t| Cell::Count(t.depth as u64)),
             tree(|t| Cell::Number(t.sah_cost, 2)),
+            tree(|t| Cell::Number(t.wide_sah_cost, 2)),
         ]);
     }
     table

@@ -325,6 +325,11 @@ impl NativeBvh {
                 } else {
                     t.sah_cost
                 },
+                wide_sah_cost: if mesh.is_empty() {
+                    s.wide_sah_cost
+                } else {
+                    t.wide_sah_cost
+                },
             },
         })
     }
@@ -455,6 +460,7 @@ impl Accel for NativeBvh {
                 leaves: self.shape.leaves,
                 depth: self.shape.depth,
                 sah_cost: self.shape.sah_cost,
+                wide_sah_cost: self.shape.wide_sah_cost,
             }),
             batch_call: self.packets.describe(),
             details: format!(

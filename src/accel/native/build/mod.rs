@@ -2,11 +2,8 @@
 //! construction of SAH-based bounding volume hierarchies") over primitive
 //! boxes builds a binary tree top-down; moving subtrees to where they cost
 //! least ([`reinsert`]) then repairs what the greedy top-down splits got
-//! wrong; the binary levels are then grouped into wide nodes the way
-//! Embree's wide builders form them: a node starts with one child holding
-//! all its primitives and keeps splitting the child with the largest
-//! surface area until it has eight or none can be split. The SAH cost is
-//! reported as the binary tree's.
+//! wrong, and the binary levels are grouped into wide nodes with the least
+//! total area ([`group`]). The SAH cost is reported for both trees.
 //!
 //! References are partitioned in place in one array; subtrees above
 //! [`PARALLEL_THRESHOLD`] primitives are built in parallel (rayon), each
@@ -22,11 +19,12 @@ use crate::geom::Bounds;
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
 pub enum BuildMethod {
     /// Binned SAH over all three axes, then subtrees moved to where they
-    /// cost least.
+    /// cost least and the levels grouped into wide nodes of least area.
     #[default]
     Sah,
-    /// The binned SAH tree as the top-down splits leave it: what moving
-    /// subtrees is measured against.
+    /// The binned SAH tree as the top-down splits leave it, grouped
+    /// largest child first (the builder until stop 57): what the moves and
+    /// the grouping are measured against.
     SahTopDown,
     /// Object median on the widest centroid axis: the baseline the SAH is
     /// measured against.
@@ -81,6 +79,9 @@ pub struct TreeShape {
     /// cost of a random ray through the root, [`TRAVERSAL_COST`] per inner
     /// node and [`leaf_cost`] per leaf.
     pub sah_cost: f64,
+    /// The same of the wide tree: one node test (about one block test)
+    /// per wide node and [`leaf_cost`] per leaf.
+    pub wide_sah_cost: f64,
 }
 
 /// A built tree: nodes in depth-first order (root first), leaves pointing
@@ -217,6 +218,8 @@ struct Stats {
     leaves: usize,
     depth: usize,
     binary_depth: usize,
+    /// Unnormalized SAH cost of the wide tree (half areas).
+    wide_sah: f64,
 }
 
 #[derive(Clone, Copy)]
@@ -232,6 +235,19 @@ struct Settings {
 /// split is charged `split_cost` block tests ([`SPLIT_COST`] or
 /// [`TRAVERSAL_COST`]).
 pub fn build(boxes: &[Bounds], max_leaf: usize, split_cost: f32, method: BuildMethod) -> BuiltTree {
+    let optimized = method == BuildMethod::Sah;
+    build_with(boxes, max_leaf, split_cost, method, optimized, optimized)
+}
+
+/// [`build`], the subtree moves and the grouping chosen apart (for tests).
+fn build_with(
+    boxes: &[Bounds],
+    max_leaf: usize,
+    split_cost: f32,
+    method: BuildMethod,
+    moves: bool,
+    optimal_grouping: bool,
+) -> BuiltTree {
     let settings = Settings {
         max_leaf: max_leaf.clamp(1, 16),
         split_cost: split_cost.clamp(0.0, TRAVERSAL_COST),
@@ -261,9 +277,14 @@ pub fn build(boxes: &[Bounds], max_leaf: usize, split_cost: f32, method: BuildMe
     };
     root.split = find_split(&refs, &root, &settings);
     let mut tree = BinaryTree::grow(&mut refs, root, &settings);
-    if method == BuildMethod::Sah {
+    if moves {
         reinsert::optimize(&mut tree);
     }
+    let grouping = if optimal_grouping {
+        Grouping::Optimal(Plan::new(&tree))
+    } else {
+        Grouping::LargestFirst
+    };
     let mut nodes = super::memory::reserve(refs.len() / 4 + 1);
     let mut stats = Stats::default();
     let root = &tree.nodes[tree.root as usize];
@@ -279,11 +300,19 @@ pub fn build(boxes: &[Bounds], max_leaf: usize, split_cost: f32, method: BuildMe
             leaves: 1,
             depth: 1,
             binary_depth: 0,
+            wide_sah: geom.half_area() as f64 * (1.0 + leaf_cost(root.count as usize) as f64),
         };
     } else {
-        collapse(&tree, tree.root, 1, 0, &mut nodes, &mut stats);
+        grouping.collapse(&tree, tree.root, 1, 0, &mut nodes, &mut stats);
     }
     let root_area = geom.half_area() as f64;
+    let per_root = |cost: f64| {
+        if root_area > 0.0 {
+            cost / root_area
+        } else {
+            0.0
+        }
+    };
     BuiltTree {
         nodes,
         prim_order: refs.iter().map(PrimRef::index).collect(),
@@ -292,11 +321,8 @@ pub fn build(boxes: &[Bounds], max_leaf: usize, split_cost: f32, method: BuildMe
             leaves: stats.leaves,
             depth: stats.depth,
             binary_depth: stats.binary_depth,
-            sah_cost: if root_area > 0.0 {
-                tree.sah() / root_area
-            } else {
-                0.0
-            },
+            sah_cost: per_root(tree.sah()),
+            wide_sah_cost: per_root(stats.wide_sah),
         },
     }
 }
@@ -320,64 +346,13 @@ fn centroid_bounds(refs: &[PrimRef]) -> Aabb {
     cent
 }
 
-/// Groups the binary levels under inner node `n` into one wide node (its
-/// `depth`; `n` at binary depth `binary_depth`) and everything below,
-/// depth first, always expanding the child of largest area (Embree's rule
-/// for wide nodes).
-fn collapse(
-    tree: &BinaryTree,
-    n: u32,
-    depth: usize,
-    binary_depth: usize,
-    out: &mut Vec<Node8>,
-    stats: &mut Stats,
-) -> ChildRef {
-    stats.nodes += 1;
-    stats.depth = stats.depth.max(depth);
-    let mut children = [(n, binary_depth); WIDTH];
-    let mut count = 1;
-    while count < WIDTH {
-        let Some(i) = (0..count)
-            .filter(|&i| !tree.nodes[children[i].0 as usize].is_leaf())
-            .max_by(|&a, &b| {
-                tree.area(children[a].0)
-                    .total_cmp(&tree.area(children[b].0))
-            })
-        else {
-            break;
-        };
-        let (c, d) = children[i];
-        let [a, b] = tree.nodes[c as usize].kids;
-        children.copy_within(i + 1..count, i + 2);
-        children[i] = (a, d + 1);
-        children[i + 1] = (b, d + 1);
-        count += 1;
-    }
-    let me = out.len();
-    out.push(Node8::UNUSED);
-    let mut slots = [(EMPTY, Bounds::EMPTY); WIDTH];
-    for (slot, &(c, d)) in slots.iter_mut().zip(&children[..count]) {
-        let node = &tree.nodes[c as usize];
-        let r = if node.is_leaf() {
-            stats.leaves += 1;
-            stats.binary_depth = stats.binary_depth.max(d);
-            // Slots of `prim_order`; `NativeBvh` later points leaves at
-            // their data.
-            leaf(node.kids[0], node.count)
-        } else {
-            collapse(tree, c, depth + 1, d, out, stats)
-        };
-        *slot = (r, node.bounds.bounds());
-    }
-    out[me] = Node8::new(&slots[..count]);
-    me as ChildRef
-}
-
 mod binary;
+mod group;
 mod reinsert;
 mod split;
 
 use self::binary::BinaryTree;
+use self::group::{Grouping, Plan};
 use self::split::find_split;
 
 #[cfg(test)]

@@ -189,3 +189,26 @@ fn moving_subtrees_lowers_the_cost_of_a_room() {
         "random boxes: SAH cost {moved:.3} with subtrees moved, {top_down:.3} top-down"
     );
 }
+
+/// The planned grouping of one binary tree has no more wide-node area than
+/// the largest-first one (and less here, where the binary subtrees near the
+/// bottom leave largest-first nodes half empty), with the same leaves.
+#[test]
+fn the_planned_grouping_costs_least() {
+    for boxes in [random_boxes(5000), room_with_model()] {
+        let grouped = |optimal| build_with(&boxes, 4, SPLIT_COST, BuildMethod::Sah, true, optimal);
+        let (planned, largest_first) = (grouped(true), grouped(false));
+        assert_eq!(planned.prim_order, largest_first.prim_order);
+        assert_eq!(planned.shape.leaves, largest_first.shape.leaves);
+        assert_eq!(leaf_sizes(&planned).0, vec![1; boxes.len()]);
+        let (a, b) = (
+            planned.shape.wide_sah_cost,
+            largest_first.shape.wide_sah_cost,
+        );
+        assert!(
+            a < b,
+            "wide SAH cost {a:.3} planned against {b:.3} largest first"
+        );
+        assert!(planned.shape.nodes < largest_first.shape.nodes);
+    }
+}
