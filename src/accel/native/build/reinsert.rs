@@ -23,7 +23,7 @@ const MOVED_PER_PASS: f32 = 0.02;
 /// Passes at most. The gains come in the first few: on the shared scenes
 /// the cost settled within five.
 const MAX_PASSES: usize = 16;
-/// A pass that lowers the SAH cost by less than this share is the last.
+/// A pass that lowers the SAH cost by at most this share is the last.
 const MIN_GAIN: f64 = 1e-3;
 
 /// Moves subtrees of `tree` until the SAH cost settles.
@@ -49,7 +49,7 @@ pub(super) fn optimize(tree: &mut BinaryTree) {
         let after = tree.sah();
         let gained = cost - after;
         cost = after;
-        if gained < cost * MIN_GAIN {
+        if gained <= cost * MIN_GAIN {
             break;
         }
     }
