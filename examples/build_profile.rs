@@ -2,7 +2,8 @@
 //! (`valgrind --tool=callgrind`) and build timing. By default native and
 //! Embree builds alternate and both medians are printed with their ratio.
 //! The native tree as the top-down splits leave it (`--build
-//! sah-top-down`) is timed too: the moves' share of a native build.
+//! sah-top-down`) is timed too: what the moves and the planned grouping
+//! add to a native build.
 //! `ONLY=native`, `ONLY=embree` or `ONLY=top-down` builds one (for
 //! profilers).
 //! `THREADS=n` uses n threads (default 1); the scene "cloud" is the

@@ -300,6 +300,7 @@ impl NativeBvh {
             }
         });
         let (t, s) = (tri_tree.shape, sphere_tree.shape);
+        let costed = if mesh.is_empty() { s } else { t };
         Ok(NativeBvh {
             options: *options,
             leaf_cap: options.leaf_cap(mesh.len()),
@@ -320,16 +321,10 @@ impl NativeBvh {
                 leaves: t.leaves + s.leaves,
                 depth: t.depth.max(s.depth),
                 binary_depth: t.binary_depth.max(s.binary_depth),
-                sah_cost: if mesh.is_empty() {
-                    s.sah_cost
-                } else {
-                    t.sah_cost
-                },
-                wide_sah_cost: if mesh.is_empty() {
-                    s.wide_sah_cost
-                } else {
-                    t.wide_sah_cost
-                },
+                // The costs of the triangles' tree, or of the spheres'
+                // where there are no triangles.
+                sah_cost: costed.sah_cost,
+                wide_sah_cost: costed.wide_sah_cost,
             },
         })
     }

@@ -1,5 +1,6 @@
 //! The builder's tests: SAH against median splits, parallel against
-//! sequential builds, leaf layout.
+//! sequential builds, leaf layout, the subtree moves and the planned
+//! grouping against the top-down tree and largest-first grouping.
 
 use super::split::PARALLEL_BINNING;
 use super::*;
