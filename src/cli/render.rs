@@ -410,6 +410,15 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
             waves.total(),
             waves.peak_bytes as f64 / 1024.0
         );
+        if let Some([arrive, light, leave]) = waves.steps.shares().map(|s| s.map(|s| 100.0 * s)) {
+            let t = waves.steps;
+            say!(
+                "stepping in arrays: {:.3} s ({arrive:.0}%) taking the hits, {:.3} s ({light:.0}%) sampling the lights, {:.3} s ({leave:.0}%) summing light and leaving",
+                t.arrive,
+                t.light,
+                t.leave
+            );
+        }
     }
     // The image and its sample-rate companion are written together or
     // not at all.

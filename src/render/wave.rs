@@ -58,7 +58,31 @@ pub struct WaveTimes {
     pub closest: f64,
     pub occluded: f64,
     pub paths: f64,
+    /// Where a wave in arrays spent `paths` ([`Steps`]); zeros otherwise.
+    pub steps: Steps,
     pub peak_bytes: usize,
+}
+
+/// The stepping of a wave in arrays, in seconds, by what it does: taking
+/// each path's hit (the sky or emission it sees, its vertex gathered, its
+/// surface point and shading frame), sampling the lights (each vertex's
+/// light samples and the gathering of their shadow rays), and leaving
+/// (the direct light summed once the shadow rays are answered, Russian
+/// roulette, the BSDF's sample and the next rays gathered).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Steps {
+    pub arrive: f64,
+    pub light: f64,
+    pub leave: f64,
+}
+
+impl Steps {
+    /// Each step's share of the stepping it breaks down, in the fields'
+    /// order; `None` when nothing was timed.
+    pub fn shares(&self) -> Option<[f64; 3]> {
+        let total = self.arrive + self.light + self.leave;
+        (total > 0.0).then(|| [self.arrive, self.light, self.leave].map(|t| t / total))
+    }
 }
 
 impl WaveTimes {
@@ -82,6 +106,9 @@ impl std::ops::AddAssign for WaveTimes {
         self.closest += o.closest;
         self.occluded += o.occluded;
         self.paths += o.paths;
+        self.steps.arrive += o.steps.arrive;
+        self.steps.light += o.steps.light;
+        self.steps.leave += o.steps.leave;
         self.peak_bytes = self.peak_bytes.max(o.peak_bytes);
     }
 }

@@ -549,6 +549,19 @@ fn waves_say_where_their_time_went() {
         (shares.iter().sum::<f64>() - 1.0).abs() < 1e-9,
         "{shares:?}"
     );
+    // In arrays, the stepping is broken down by step, and the steps make
+    // up all of it; otherwise there is no breakdown.
+    let s = t.steps;
+    if arrays_take(&scene, settings.shading) {
+        assert!(
+            s.arrive > 0.0 && s.light > 0.0 && s.leave > 0.0,
+            "a step took no time: {s:?}"
+        );
+        let sum = s.arrive + s.light + s.leave;
+        assert!((sum - t.paths).abs() <= 1e-9 * t.paths, "{s:?} of {}", t.paths);
+    } else {
+        assert_eq!(s.shares(), None, "{s:?}");
+    }
     for batching in [Batching::Camera, Batching::Alone] {
         let out = render(
             &scene,

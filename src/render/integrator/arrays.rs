@@ -348,8 +348,10 @@ impl ArrayWave {
         let mut clock = std::time::Instant::now();
         let mut lap = |into: &mut f64| {
             let now = std::time::Instant::now();
-            *into += (now - clock).as_secs_f64();
+            let took = (now - clock).as_secs_f64();
+            *into += took;
             clock = now;
+            took
         };
         let n = camera_rays.len();
         self.total.clear();
@@ -383,8 +385,8 @@ impl ArrayWave {
         loop {
             self.arrive(integrator, plan, streams, counters);
             self.vertices(plan);
+            times.paths += lap(&mut times.steps.arrive);
             self.light(plan, streams);
-            lap(&mut times.paths);
             self.shadow_rays.clear();
             for (i, stream) in self.light_stream.iter().enumerate() {
                 if stream.is_none() {
@@ -400,6 +402,7 @@ impl ArrayWave {
             }
             let in_lanes = self.shadow_rays.len();
             self.shadow_rays.extend_from_slice(self.tape.rays());
+            times.paths += lap(&mut times.steps.light);
             self.blocked.clear();
             self.blocked.resize(self.shadow_rays.len(), false);
             integrator
@@ -414,13 +417,13 @@ impl ArrayWave {
                 }
             }
             self.leave(plan, streams);
-            lap(&mut times.paths);
-            if self.live.is_empty() {
-                break;
-            }
             self.rays.clear();
             self.rays
                 .extend(self.live.iter().map(|&k| self.ray[k as usize]));
+            times.paths += lap(&mut times.steps.leave);
+            if self.live.is_empty() {
+                break;
+            }
             self.hits.clear();
             self.hits.resize(self.rays.len(), None);
             integrator.accel().closest_hits(
