@@ -22,6 +22,7 @@ pub mod mitsuba;
 pub mod part;
 pub mod wave;
 
+use std::sync::Mutex;
 use std::time::Instant;
 
 use glam::{DVec3, Vec3};
@@ -219,6 +220,9 @@ fn render_rows<A: Accel>(
     // One row per job: rayon would otherwise cut the rows into a few
     // pieces per thread, and the thread whose pieces cost less idles at
     // the end of the frame.
+    // The lists of a row's waves, handed from row to row: allocated and
+    // first touched once per thread rather than once per row.
+    let spare: Mutex<Vec<RowLists>> = Mutex::new(Vec::new());
     let (totals, wave_times) = rows
         .into_par_iter()
         .with_max_len(1)
@@ -226,16 +230,22 @@ fn render_rows<A: Accel>(
             let y = cell.y + row_index as u32;
             let mut counters = TraceCounters::default();
             let columns = cell.x..cell.x + cell.width;
+            let mut lists = spare
+                .lock()
+                .unwrap_or_else(|e| e.into_inner())
+                .pop()
+                .unwrap_or_default();
             let times = render_row(
                 &integrator,
                 &camera,
                 settings,
-                columns,
-                y,
+                (columns, y),
                 sums,
                 counts,
                 &mut counters,
+                &mut lists,
             );
+            spare.lock().unwrap_or_else(|e| e.into_inner()).push(lists);
             for ((value, sum), &n) in row.iter_mut().zip(sums.iter()).zip(counts.iter()) {
                 // The one division both a single render and a merge do.
                 *value = if n == 0 {
@@ -347,15 +357,15 @@ pub const CAMERA_WAVE_PATHS: usize = 4096;
 /// path takes the same steps however it is batched, so the sums do not
 /// depend on the batching. Returns where the row's waves spent their time.
 #[allow(clippy::too_many_arguments)]
-fn render_row<A: Accel>(
-    integrator: &Integrator<A>,
+fn render_row<'s, A: Accel>(
+    integrator: &Integrator<'s, A>,
     camera: &Camera,
     settings: &RenderSettings,
-    columns: std::ops::Range<u32>,
-    y: u32,
+    (columns, y): (std::ops::Range<u32>, u32),
     sums: &mut [DVec3],
     counts: &mut [u32],
     counters: &mut TraceCounters,
+    lists: &mut RowLists<'s>,
 ) -> WaveTimes {
     let cap = settings.samples.max(1);
     let (first, last) = settings.sample_range.unwrap_or((0, cap));
@@ -365,8 +375,13 @@ fn render_row<A: Accel>(
     counts.fill(0);
     let mut luminance_sums = vec![(0.0f64, 0.0f64); width];
     let mut active: Vec<usize> = (0..width).collect();
-    let (mut rays, mut streams, mut values) = (Vec::new(), Vec::new(), Vec::new());
-    let mut wave = Wave::default();
+    let RowLists {
+        wave,
+        rays,
+        streams,
+        values,
+    } = lists;
+    wave.times = WaveTimes::default();
     let wave_paths = match settings.batching {
         Batching::Waves => WAVE_PATHS,
         Batching::Camera | Batching::Alone => CAMERA_WAVE_PATHS,
@@ -401,10 +416,10 @@ fn render_row<A: Accel>(
                 wave.radiance(
                     integrator,
                     settings.batching,
-                    &rays,
-                    &mut streams,
+                    rays,
+                    streams,
                     counters,
-                    &mut values,
+                    values,
                 );
                 for (pixel_values, &p) in values.chunks(block as usize).zip(pixels) {
                     for &value in pixel_values {
@@ -432,13 +447,23 @@ fn render_row<A: Accel>(
     }
     if settings.batching == Batching::Waves {
         wave.times.peak_bytes = wave.held_bytes()
-            + wave::held(&rays)
-            + wave::held(&streams)
-            + wave::held(&values)
+            + wave::held(rays)
+            + wave::held(streams)
+            + wave::held(values)
             + wave::held(&luminance_sums)
             + wave::held(&active);
     }
     wave.times
+}
+
+/// The lists a row's waves fill, kept for the next row a thread renders:
+/// the wave's own, and its paths' camera rays, random streams and values.
+#[derive(Default)]
+struct RowLists<'s> {
+    wave: Wave<'s>,
+    rays: Vec<Ray>,
+    streams: Vec<Rng>,
+    values: Vec<Vec3>,
 }
 
 #[cfg(test)]

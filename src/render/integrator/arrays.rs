@@ -244,6 +244,15 @@ fn zeros(lists: &mut [Vec<f32>], n: usize) {
     }
 }
 
+/// Gives `lists` `n` values each, for a pass that writes every one of
+/// them: what they held before stays until then (zeroing them first
+/// took 8% of the stepping of CBempty's frame).
+fn sized(lists: &mut [Vec<f32>], n: usize) {
+    for l in lists {
+        l.resize(n, 0.0);
+    }
+}
+
 /// Three coordinates of eight vertices from `lists` at vertex `i`.
 #[inline(always)]
 fn v3(lists: &Lists, i: usize) -> [F8; 3] {
@@ -491,6 +500,7 @@ impl ArrayWave {
             self.albedo.push(albedo);
         }
         // The vertices' lists: hit data gathered, padded with the last.
+        // Every value is written here or by the surface pass.
         let count = self.at.len();
         let padded = count.div_ceil(L) * L;
         for lists in [
@@ -501,32 +511,30 @@ impl ArrayWave {
             &mut self.ng,
             &mut self.ns,
         ] {
-            zeros(lists, padded);
+            sized(lists, padded);
         }
         for k in 0..3 {
-            zeros(&mut self.corner[k], padded);
-            zeros(&mut self.normal[k], padded);
+            sized(&mut self.corner[k], padded);
+            sized(&mut self.normal[k], padded);
         }
-        self.plain.clear();
-        self.plain.resize(padded, 0.0);
-        self.sphere.clear();
+        sized(std::slice::from_mut(&mut self.plain), padded);
         self.sphere.resize(padded, false);
         for v in 0..padded {
             let i = self.at[v.min(count - 1)] as usize;
             let (ray, hit) = (&self.rays[i], self.hits[i].expect("a vertex's hit"));
             let p = hit.prim as usize;
             // A sphere's point is the scalar function's (below), and it
-            // has no lift: its lanes keep zeros meanwhile.
+            // has no lift: its lanes take zeros meanwhile.
             self.sphere[v] = p >= scene.mesh.len();
-            if self.sphere[v] {
-                for a in 0..3 {
-                    self.dir[a][v] = ray.dir[a];
-                }
-                continue;
-            }
-            let corners = scene.mesh.corners(p);
-            let normals = scene.corner_normals(p);
-            let w = crate::scene::barycentric_weights(&hit);
+            let (corners, normals, w) = if self.sphere[v] {
+                ([Vec3::ZERO; 3], [Vec3::ZERO; 3], [0.0; 3])
+            } else {
+                (
+                    scene.mesh.corners(p),
+                    scene.corner_normals(p),
+                    crate::scene::barycentric_weights(&hit),
+                )
+            };
             for a in 0..3 {
                 self.dir[a][v] = ray.dir[a];
                 self.w[a][v] = w[a];
@@ -607,10 +615,9 @@ impl ArrayWave {
     fn vertices(&mut self, plan: &ArrayPlan) {
         let padded = self.dir[0].len();
         for lists in [&mut self.s, &mut self.t, &mut self.lift] {
-            zeros(lists, padded);
+            sized(lists, padded);
         }
-        self.lifted.clear();
-        self.lifted.resize(padded, 0.0);
+        sized(std::slice::from_mut(&mut self.lifted), padded);
         vertex_pass(plan.avx2, self);
         // `Scene::shadow_lift`: none on a sphere.
         for v in 0..self.at.len() {
@@ -632,10 +639,11 @@ impl ArrayWave {
         self.term.resize_with(slots, Default::default);
         self.has_ray.resize_with(slots, Vec::new);
         self.shadow.resize_with(slots, Default::default);
+        // Each slot's lists are written whole by its light pass.
         for j in 0..slots {
-            zeros(&mut self.term[j], padded);
-            zeros(std::slice::from_mut(&mut self.has_ray[j]), padded);
-            zeros(&mut self.shadow[j], padded);
+            sized(&mut self.term[j], padded);
+            sized(std::slice::from_mut(&mut self.has_ray[j]), padded);
+            sized(&mut self.shadow[j], padded);
         }
         self.light_stream.clear();
         for &i in &self.at {
@@ -723,7 +731,7 @@ impl ArrayWave {
             (self.draws[0][v], self.draws[1][v]) = rng.next_2d();
             self.going[v] = 1.0;
         }
-        zeros(&mut self.next, padded);
+        sized(&mut self.next, padded);
         bsdf_pass(plan.avx2, self);
         self.next_live.clear();
         for (v, &i) in self.at.iter().enumerate() {
