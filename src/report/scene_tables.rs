@@ -256,6 +256,9 @@ fn frames_table(r: &SceneResult) -> Table {
         ("waves_extension_percent", "waves: extension-ray batches, %"),
         ("waves_shadow_percent", "waves: shadow-ray batches, %"),
         ("waves_paths_percent", "waves: stepping paths, %"),
+        ("waves_arrive_percent", "of which taking the hits, %"),
+        ("waves_light_percent", "sampling the lights, %"),
+        ("waves_leave_percent", "summing light and leaving, %"),
         ("waves_kib_per_thread", "waves: KiB a thread at most"),
     ]);
     // Every mode gives the same image (the same error), so samples per
@@ -266,7 +269,7 @@ fn frames_table(r: &SceneResult) -> Table {
         let (lo, median, hi) = r.wave_frame[i];
         let shares = r.wave_times[i].shares();
         let percent = |x: f64| Cell::Number(100.0 * x, 0);
-        table.row(vec![
+        let mut cells = vec![
             Cell::Text(c.label()),
             Cell::Measured(r.frame_seconds[i], 3),
             if i == 0 {
@@ -287,8 +290,19 @@ fn frames_table(r: &SceneResult) -> Table {
             percent(shares[0]),
             percent(shares[1]),
             percent(shares[2]),
-            Cell::Number(r.wave_times[i].peak_bytes as f64 / 1024.0, 0),
-        ]);
+        ];
+        // The stepping's steps, as shares of the whole wave (empty where
+        // the wave did not run in arrays).
+        let steps = r.wave_times[i].steps.shares();
+        cells.extend((0..3).map(|k| match steps {
+            Some(s) => percent(shares[2] * s[k]),
+            None => Cell::Empty,
+        }));
+        cells.push(Cell::Number(
+            r.wave_times[i].peak_bytes as f64 / 1024.0,
+            0,
+        ));
+        table.row(cells);
     }
     table
 }

@@ -149,6 +149,21 @@ fn quick_report_writes_every_section_and_the_headline_figures() {
             .collect();
             assert!(percent.iter().all(|p| *p > 0.0), "{row}");
             assert!((percent.iter().sum::<f64>() - 100.0).abs() < 1e-6, "{row}");
+            // The stepping's steps, where the waves ran in arrays, make
+            // up the stepping; elsewhere they are empty.
+            let steps: Vec<Option<f64>> = [
+                "waves_arrive_percent",
+                "waves_light_percent",
+                "waves_leave_percent",
+            ]
+            .iter()
+            .map(|k| row[*k].as_f64())
+            .collect();
+            if steps.iter().any(Option::is_some) {
+                let steps: Vec<f64> = steps.iter().map(|p| p.unwrap_or(f64::NAN)).collect();
+                assert!(steps.iter().all(|p| *p > 0.0), "{row}");
+                assert!((steps.iter().sum::<f64>() - percent[2]).abs() < 1e-6, "{row}");
+            }
         }
     }
     let headline = json["headline"].as_array().expect("headline rows");
