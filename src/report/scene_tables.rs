@@ -298,10 +298,7 @@ fn frames_table(r: &SceneResult) -> Table {
             Some(s) => percent(shares[2] * s[k]),
             None => Cell::Empty,
         }));
-        cells.push(Cell::Number(
-            r.wave_times[i].peak_bytes as f64 / 1024.0,
-            0,
-        ));
+        cells.push(Cell::Number(r.wave_times[i].peak_bytes as f64 / 1024.0, 0));
         table.row(cells);
     }
     table

@@ -558,7 +558,11 @@ fn waves_say_where_their_time_went() {
             "a step took no time: {s:?}"
         );
         let sum = s.arrive + s.light + s.leave;
-        assert!((sum - t.paths).abs() <= 1e-9 * t.paths, "{s:?} of {}", t.paths);
+        assert!(
+            (sum - t.paths).abs() <= 1e-9 * t.paths,
+            "{s:?} of {}",
+            t.paths
+        );
     } else {
         assert_eq!(s.shares(), None, "{s:?}");
     }

@@ -162,7 +162,10 @@ fn quick_report_writes_every_section_and_the_headline_figures() {
             if steps.iter().any(Option::is_some) {
                 let steps: Vec<f64> = steps.iter().map(|p| p.unwrap_or(f64::NAN)).collect();
                 assert!(steps.iter().all(|p| *p > 0.0), "{row}");
-                assert!((steps.iter().sum::<f64>() - percent[2]).abs() < 1e-6, "{row}");
+                assert!(
+                    (steps.iter().sum::<f64>() - percent[2]).abs() < 1e-6,
+                    "{row}"
+                );
             }
         }
     }
