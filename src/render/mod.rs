@@ -217,12 +217,12 @@ fn render_rows<A: Accel>(
         .enumerate()
         .collect();
     rows.sort_unstable_by_key(|(row_index, _)| scattered(*row_index as u32));
-    // One row per job: rayon would otherwise cut the rows into a few
-    // pieces per thread, and the thread whose pieces cost less idles at
-    // the end of the frame.
     // The lists of a row's waves, handed from row to row: allocated and
     // first touched once per thread rather than once per row.
     let spare: Mutex<Vec<RowLists>> = Mutex::new(Vec::new());
+    // One row per job: rayon would otherwise cut the rows into a few
+    // pieces per thread, and the thread whose pieces cost less idles at
+    // the end of the frame.
     let (totals, wave_times) = rows
         .into_par_iter()
         .with_max_len(1)

@@ -246,7 +246,7 @@ fn zeros(lists: &mut [Vec<f32>], n: usize) {
 
 /// Gives `lists` `n` values each, for a pass that writes every one of
 /// them: what they held before stays until then (zeroing them first
-/// took 8% of the stepping of CBempty's frame).
+/// took 25 ms of the 0.6 s of stepping in CBempty's frame).
 fn sized(lists: &mut [Vec<f32>], n: usize) {
     for l in lists {
         l.resize(n, 0.0);
