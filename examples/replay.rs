@@ -14,6 +14,11 @@
 //! With `REPLAY_MISS=1` every ray is first moved 10^4 to the side of the
 //! scene, so that all miss it: what is left is the cost outside the tree.
 //!
+//! Mode `groups` traces each run of `REPLAY_GROUP` (16 unless set)
+//! consecutive rays as one batch query, as a renderer that keeps eight or
+//! sixteen paths in lanes from camera to end would trace each bounce of a
+//! group (docs/experiments.md, stop 58); full groups, so an upper bound.
+//!
 //! Prints Mrays/s, hits and box and primitive tests per ray for each mode;
 //! the loop is the report's own (`measure::trace_counted`, batch
 //! queries of 256 rays).
@@ -30,7 +35,7 @@ use hybrid::measure::trace_counted;
 fn main() -> ExitCode {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let (Some(dir), Some(kind)) = (args.first(), args.get(1)) else {
-        eprintln!("usage: replay DIR KIND [single|packets|both] [PASSES]");
+        eprintln!("usage: replay DIR KIND [single|packets|groups|both] [PASSES]");
         return ExitCode::from(2);
     };
     let mode = args.get(2).map_or("both", String::as_str);
@@ -82,9 +87,13 @@ fn main() -> ExitCode {
             r.origin.x += 1e4;
         }
     }
-    for packets in [false, true] {
-        let name = if packets { "packets" } else { "single" };
-        if mode != "both" && mode != name {
+    let group = std::env::var("REPLAY_GROUP")
+        .ok()
+        .and_then(|g| g.parse().ok())
+        .filter(|&g: &usize| g > 0)
+        .unwrap_or(16);
+    for name in ["single", "packets", "groups"] {
+        if mode != name && !(mode == "both" && name != "groups") {
             continue;
         }
         let mut best = f64::MAX;
@@ -92,8 +101,28 @@ fn main() -> ExitCode {
         for _ in 0..passes {
             counters = TraceCounters::default();
             let start = Instant::now();
-            let batched = packets.then_some(Coherence::Incoherent);
-            hits = trace_counted(&native, &rays, query, batched, &mut counters);
+            hits = match name {
+                "single" => trace_counted(&native, &rays, query, None, &mut counters),
+                "packets" => trace_counted(
+                    &native,
+                    &rays,
+                    query,
+                    Some(Coherence::Incoherent),
+                    &mut counters,
+                ),
+                _ => rays
+                    .chunks(group)
+                    .map(|g| {
+                        trace_counted(
+                            &native,
+                            g,
+                            query,
+                            Some(Coherence::Incoherent),
+                            &mut counters,
+                        )
+                    })
+                    .sum(),
+            };
             best = best.min(start.elapsed().as_secs_f64());
         }
         let n = rays.len() as f64;
