@@ -85,6 +85,14 @@ impl Steps {
     }
 }
 
+impl std::ops::AddAssign for Steps {
+    fn add_assign(&mut self, o: Steps) {
+        self.arrive += o.arrive;
+        self.light += o.light;
+        self.leave += o.leave;
+    }
+}
+
 impl WaveTimes {
     pub fn total(&self) -> f64 {
         self.closest + self.occluded + self.paths
@@ -106,9 +114,7 @@ impl std::ops::AddAssign for WaveTimes {
         self.closest += o.closest;
         self.occluded += o.occluded;
         self.paths += o.paths;
-        self.steps.arrive += o.steps.arrive;
-        self.steps.light += o.steps.light;
-        self.steps.leave += o.steps.leave;
+        self.steps += o.steps;
         self.peak_bytes = self.peak_bytes.max(o.peak_bytes);
     }
 }
