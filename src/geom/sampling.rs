@@ -49,6 +49,18 @@ impl Rng {
         }
     }
 
+    /// Its state and increment, for lists that keep generators side by
+    /// side ([`Rng::from_parts`] gives it back).
+    #[inline]
+    pub(crate) fn parts(&self) -> (u64, u64) {
+        (self.state, self.inc)
+    }
+
+    #[inline]
+    pub(crate) fn from_parts(state: u64, inc: u64) -> Rng {
+        Rng { state, inc }
+    }
+
     /// The generator of camera sample `sample` of pixel `(x, y)`.
     pub fn for_sample(seed: u64, x: u32, y: u32, sample: u32) -> Rng {
         let pixel = ((y as u64) << 32) | x as u64;

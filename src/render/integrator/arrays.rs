@@ -58,6 +58,9 @@ pub struct ArrayPlan<'l> {
     lanes: Option<Lanes<'l>>,
     s: PathSettings,
     avx2: Avx2,
+    /// Whether the sky gives light (an ambient light or a map): where it
+    /// does not, a ray that escapes adds nothing to its path.
+    sky: bool,
 }
 
 /// The lights of a vertex in lanes: the delta lights, then the area and
@@ -71,7 +74,8 @@ impl<A: Accel> Integrator<'_, A> {
     /// The plan of a wave in arrays, if this integrator's scene and
     /// settings are ones it takes.
     pub fn array_plan(&self, avx2: Option<Avx2>) -> Option<ArrayPlan<'_>> {
-        plan(self.scene, &self.lights, self.shading, avx2)
+        let sky = self.ambient != Vec3::ZERO || self.lights.environment.is_some();
+        plan(self.scene, &self.lights, self.shading, avx2).map(|p| ArrayPlan { sky, ..p })
     }
 }
 
@@ -105,7 +109,12 @@ fn plan<'l>(
             && delta.len() + each.len() * s.light_samples.max(1) as usize <= MOST_SAMPLES;
         takes.then_some(Lanes { delta, each })
     });
-    Some(ArrayPlan { lanes, s, avx2 })
+    Some(ArrayPlan {
+        lanes,
+        s,
+        avx2,
+        sky: true,
+    })
 }
 
 impl ArrayPlan<'_> {
@@ -169,29 +178,55 @@ enum Source<'l> {
 type Lists = [Vec<f32>; 3];
 
 /// A wave's paths and the lists its passes reuse from bounce to bounce.
+///
+/// The paths still going sit in slots, in the order of the paths: each
+/// bounce, the ones that go on from their hits move to the front, their
+/// order kept (a stable compaction, fused with the gathering of their
+/// hits). A slot's state is in lists indexed by the slot, so the passes
+/// read and write it eight slots at a time, with no index between a
+/// vertex and its path.
 #[derive(Default)]
 pub struct ArrayWave {
-    // Each path's state (index: the path).
+    /// Each path's radiance so far (index: the path).
     total: Vec<Vec3>,
-    beta: Vec<Vec3>,
+    // Each slot's state: its path, depth and throughput; where its ray
+    // left (the BSDF's density, the point, its normals, and whether it
+    // faces by the smooth one too, a mask); its generator.
+    path: Vec<u32>,
     depth: Vec<u32>,
-    prev: Vec<Previous>,
-    ray: Vec<Ray>,
-    /// The paths with a ray this bounce, and their rays and hits; the
-    /// next bounce's, as they are found.
-    live: Vec<u32>,
-    next_live: Vec<u32>,
+    beta: Lists,
+    prev_pdf: Vec<f32>,
+    prev_from: Lists,
+    prev_ng: Lists,
+    prev_ns: Lists,
+    prev_smooth: Vec<f32>,
+    rng: Rngs,
+    /// The rays of this bounce, the slots they leave from, and their hits.
     rays: Vec<Ray>,
+    traced: Vec<u32>,
     hits: Vec<Option<Hit>>,
+    /// Each slot kept at a vertex: the slot its path was in, and the ray
+    /// that found the vertex.
+    from: Vec<u32>,
+    ray_of: Vec<u32>,
     /// The paths at a vertex of another material this bounce, stepped
     /// by the integrator's own code: their direct light's terms and
     /// shadow rays on `tape`.
     alone: Vec<Alone>,
     tape: ShadowTape,
-    /// The paths at a Lambertian vertex this bounce (index: the vertex),
-    /// and each vertex's lists, padded to whole groups of eight.
-    at: Vec<u32>,
-    albedo: Vec<Vec3>,
+    /// Whether a slot is a Lambertian vertex in lanes, and whether it
+    /// takes direct light (masks; a slot of a path that went on alone is
+    /// neither).
+    lanes: Vec<f32>,
+    lit: Vec<f32>,
+    /// The slots at a vertex this bounce, and that count padded to whole
+    /// groups of eight: the extent of every pass (the lists may be
+    /// longer).
+    count: usize,
+    padded: usize,
+    /// Each slot's vertex: hit data gathered, padded to whole groups of
+    /// eight with the last.
+    albedo: Lists,
     dir: Lists,
     w: Lists,
     corner: [Lists; 3],
@@ -208,8 +243,8 @@ pub struct ArrayWave {
     /// and whether it is on a sphere.
     plain: Vec<f32>,
     sphere: Vec<bool>,
-    /// Each vertex's light stream, if it takes direct light.
-    light_stream: Vec<Option<Rng>>,
+    /// Each vertex's light stream.
+    light_rng: Rngs,
     /// Each light sample of every vertex: its term, whether it has a
     /// shadow ray (a mask), and the ray.
     term: Vec<Lists>,
@@ -223,33 +258,61 @@ pub struct ArrayWave {
     draws: Lists,
     going: Vec<f32>,
     next: [Vec<f32>; 6],
+    alone_rays: Vec<Ray>,
+}
+
+/// Generators side by side: each one's state and increment
+/// ([`Rng::parts`]).
+#[derive(Default)]
+struct Rngs {
+    state: Vec<u64>,
+    inc: Vec<u64>,
+}
+
+impl Rngs {
+    #[inline(always)]
+    fn get(&self, v: usize) -> Rng {
+        Rng::from_parts(self.state[v], self.inc[v])
+    }
+
+    #[inline(always)]
+    fn set(&mut self, v: usize, rng: &Rng) {
+        (self.state[v], self.inc[v]) = rng.parts();
+    }
+
+    /// At least `n` generators each (see [`sized`]).
+    fn sized(&mut self, n: usize) {
+        if self.state.len() < n {
+            self.state.resize(n, 0);
+            self.inc.resize(n, 0);
+        }
+    }
+
+    fn held_bytes(&self) -> usize {
+        held(&self.state) + held(&self.inc)
+    }
 }
 
 /// A path at a vertex the lanes do not take, stepped alone: its
 /// throughput before it left the vertex (its direct light's weight), its
-/// direct light on the tape, if the vertex takes any, and whether it went
-/// on.
+/// direct light on the tape, if the vertex takes any, and, if it went on,
+/// its slot, its state after leaving and its generator.
 struct Alone {
     path: u32,
     beta: Vec3,
     direct: Option<Span>,
-    goes: bool,
+    goes: Option<(u32, Walk, Rng)>,
 }
 
-/// Clears `lists` and gives them `n` zeros each.
-fn zeros(lists: &mut [Vec<f32>], n: usize) {
-    for l in lists {
-        l.clear();
-        l.resize(n, 0.0);
-    }
-}
-
-/// Gives `lists` `n` values each, for a pass that writes every one of
-/// them: what they held before stays until then (zeroing them first
-/// took 25 ms of the 0.6 s of stepping in CBempty's frame).
+/// Gives `lists` at least `n` values each, for a pass that writes the
+/// first `n`: what they held before stays until then, and they never
+/// shrink (zeroing them took 25 ms of the 0.6 s of stepping in CBempty's
+/// frame, and so did growing them back from bounce to bounce).
 fn sized(lists: &mut [Vec<f32>], n: usize) {
     for l in lists {
-        l.resize(n, 0.0);
+        if l.len() < n {
+            l.resize(n, 0.0);
+        }
     }
 }
 
@@ -276,6 +339,13 @@ fn lane(lists: &Lists, i: usize) -> Vec3 {
     Vec3::new(lists[0][i], lists[1][i], lists[2][i])
 }
 
+#[inline(always)]
+fn set_lane(lists: &mut Lists, i: usize, v: Vec3) {
+    for a in 0..3 {
+        lists[a][i] = v[a];
+    }
+}
+
 /// `Ray::spawn`'s origin: the point moved past its error bound along the
 /// normal, to the side `dir` leaves on, then one ulp further away.
 #[inline(always)]
@@ -296,28 +366,36 @@ impl ArrayWave {
     pub fn held_bytes(&self) -> usize {
         let lists = |l: &[Vec<f32>]| l.iter().map(held).sum::<usize>();
         let mut bytes = held(&self.total)
-            + held(&self.beta)
+            + held(&self.path)
             + held(&self.depth)
-            + held(&self.prev)
-            + held(&self.ray)
-            + held(&self.live)
-            + held(&self.next_live)
+            + held(&self.prev_pdf)
+            + held(&self.prev_smooth)
+            + self.rng.held_bytes()
+            + self.light_rng.held_bytes()
+            + held(&self.rays)
+            + held(&self.traced)
+            + held(&self.from)
+            + held(&self.ray_of)
+            + held(&self.hits)
             + held(&self.alone)
             + self.tape.held_bytes()
-            + held(&self.rays)
-            + held(&self.hits)
-            + held(&self.at)
-            + held(&self.albedo)
+            + held(&self.lanes)
+            + held(&self.lit)
             + held(&self.lifted)
             + held(&self.plain)
             + held(&self.sphere)
-            + held(&self.light_stream)
             + held(&self.shadow_rays)
             + held(&self.blocked)
             + held(&self.going)
+            + held(&self.alone_rays)
             + lists(&self.draws)
             + lists(&self.next);
         for l in [
+            &self.beta,
+            &self.prev_from,
+            &self.prev_ng,
+            &self.prev_ns,
+            &self.albedo,
             &self.dir,
             &self.w,
             &self.p,
@@ -365,47 +443,52 @@ impl ArrayWave {
         let n = camera_rays.len();
         self.total.clear();
         self.total.resize(n, Vec3::ZERO);
-        self.beta.clear();
-        self.beta.resize(n, Vec3::ONE);
+        // Every path in its own slot, at the camera: the slots' lists are
+        // as long as the wave, padded, from here on.
+        let slots = n.div_ceil(L) * L;
+        self.path.clear();
+        self.path.extend(0..n as u32);
+        self.path.resize(slots, 0);
         self.depth.clear();
-        self.depth.resize(n, 0);
-        // The same state for every path, then each camera ray's origin:
-        // built per path in one expression, the compiler stored it to the
-        // stack in parts and reloaded it whole (a stalled store
-        // forwarding, 2% of CBbunny's frame).
-        let start = Previous {
-            bsdf_pdf: 0.0,
-            from: Vec3::ZERO,
-            facing: Facing::geometric(Vec3::Y),
-        };
-        self.prev.clear();
-        self.prev.resize(n, start);
-        for (prev, r) in self.prev.iter_mut().zip(camera_rays) {
-            prev.from = r.origin;
+        self.depth.resize(slots, 0);
+        for a in 0..3 {
+            self.beta[a].clear();
+            self.beta[a].resize(slots, 1.0);
+            self.prev_ng[a].clear();
+            self.prev_ng[a].resize(slots, Vec3::Y[a]);
         }
-        self.ray.clear();
-        self.ray.extend_from_slice(camera_rays);
-        self.live.clear();
-        self.live.extend(0..n as u32);
+        sized(&mut self.prev_from, slots);
+        sized(&mut self.prev_ns, slots);
+        self.prev_pdf.clear();
+        self.prev_pdf.resize(slots, 0.0);
+        self.prev_smooth.clear();
+        self.prev_smooth.resize(slots, 0.0);
+        self.rng.sized(slots);
+        for (v, (r, stream)) in camera_rays.iter().zip(&*streams).enumerate() {
+            set_lane(&mut self.prev_from, v, r.origin);
+            self.rng.set(v, stream);
+        }
+        self.traced.clear();
+        self.traced.extend(0..n as u32);
         self.rays.clear();
         self.rays.extend_from_slice(camera_rays);
         self.hits.clear();
         self.hits.extend_from_slice(first);
         loop {
-            self.arrive(integrator, plan, streams, counters);
+            self.arrive(integrator, plan, counters);
             self.vertices(plan);
             times.paths += lap(&mut times.steps.arrive);
-            self.light(plan, streams);
+            self.light(plan);
             self.shadow_rays.clear();
-            for (i, stream) in self.light_stream.iter().enumerate() {
-                if stream.is_none() {
+            for v in 0..self.slots() {
+                if self.lit[v] == 0.0 {
                     continue;
                 }
                 for j in 0..self.term.len() {
-                    if self.has_ray[j][i] != 0.0 {
+                    if self.has_ray[j][v] != 0.0 {
                         let r = &self.shadow[j];
                         self.shadow_rays
-                            .push(Ray::from_flat(&std::array::from_fn(|c| r[c][i])));
+                            .push(Ray::from_flat(&std::array::from_fn(|c| r[c][v])));
                     }
                 }
             }
@@ -425,12 +508,9 @@ impl ArrayWave {
                     self.total[a.path as usize] += a.beta * sum;
                 }
             }
-            self.leave(plan, streams);
-            self.rays.clear();
-            self.rays
-                .extend(self.live.iter().map(|&k| self.ray[k as usize]));
+            self.leave(plan);
             times.paths += lap(&mut times.steps.leave);
-            if self.live.is_empty() {
+            if self.rays.is_empty() {
                 break;
             }
             self.hits.clear();
@@ -447,46 +527,74 @@ impl ArrayWave {
         values.extend_from_slice(&self.total);
     }
 
-    /// What each live path sees at its hit, as [`Integrator::arrive`]
+    /// The slots at a vertex this bounce (lanes' and alone).
+    fn slots(&self) -> usize {
+        self.count
+    }
+
+    /// Where slot `v`'s ray left.
+    fn prev(&self, v: usize) -> Previous {
+        Previous {
+            bsdf_pdf: self.prev_pdf[v],
+            from: lane(&self.prev_from, v),
+            facing: Facing {
+                geometric: lane(&self.prev_ng, v),
+                smooth: (self.prev_smooth[v] != 0.0).then(|| lane(&self.prev_ns, v)),
+            },
+        }
+    }
+
+    /// What each ray's path sees at its hit, as [`Integrator::arrive`]
     /// counts it: the sky where it missed, emission where it hit a light.
     /// The paths that scatter there from a Lambertian vertex (below the
-    /// last bounce) go into `at`, their vertices' hit data gathered into
+    /// last bounce) keep a slot, their vertices' hit data gathered into
     /// the lists and their surface points computed in lanes; the paths at
     /// a vertex of another material take the whole bounce alone
-    /// ([`Self::alone`]).
+    /// ([`Self::alone`]) and keep a slot if they go on.
     fn arrive<A: Accel>(
         &mut self,
         integrator: &Integrator<A>,
         plan: &ArrayPlan,
-        streams: &mut [Rng],
         counters: &mut TraceCounters,
     ) {
         let (scene, s) = (integrator.scene, &plan.s);
-        self.at.clear();
-        self.albedo.clear();
         self.alone.clear();
         self.tape.clear();
-        for i in 0..self.live.len() {
-            let k = self.live[i];
-            let k = k as usize;
-            let (ray, depth) = (self.rays[i], self.depth[k]);
-            let Some(hit) = self.hits[i] else {
-                if s.counts(depth) && !(depth == 0 && s.background == Background::Black) {
-                    self.total[k] += self.beta[k] * integrator.escaped(s, &self.prev[k], ray.dir);
+        let most = self.rays.len().div_ceil(L) * L;
+        sized(&mut self.albedo, most);
+        sized(std::slice::from_mut(&mut self.lanes), most);
+        sized(std::slice::from_mut(&mut self.lit), most);
+        self.from.clear();
+        self.ray_of.clear();
+        // Which paths keep a slot, and what the others see.
+        for j in 0..self.rays.len() {
+            let v = self.traced[j] as usize;
+            let (ray, k, depth) = (self.rays[j], self.path[v] as usize, self.depth[v]);
+            let Some(hit) = self.hits[j] else {
+                let seen = !(depth == 0 && s.background == Background::Black);
+                if plan.sky && s.counts(depth) && seen {
+                    let (beta, prev) = (lane(&self.beta, v), self.prev(v));
+                    self.total[k] += beta * integrator.escaped(s, &prev, ray.dir);
                 }
                 continue;
             };
             let m = &scene.materials[scene.material_of(hit.prim) as usize];
             let in_lanes = matches!(m, Material::Lambertian { .. } | Material::Emission { .. });
+            let to = self.from.len();
             if !in_lanes || plan.lanes.is_none() {
-                self.alone(integrator, s, k, hit, &mut streams[k], counters);
+                if self.alone(integrator, s, v, ray, hit, to, counters) {
+                    self.from.push(v as u32);
+                    self.ray_of.push(j as u32);
+                    self.lanes[to] = 0.0;
+                    self.lit[to] = 0.0;
+                }
                 continue;
             }
             if s.counts(depth) && m.emission() != Vec3::ZERO {
                 let sp = scene.surface_point(&ray, &hit);
-                let (beta, prev) = (self.beta[k], &self.prev[k]);
+                let (beta, prev) = (lane(&self.beta, v), self.prev(v));
                 self.total[k] =
-                    integrator.with_emission(self.total[k], beta, s, prev, m, &hit, &sp, ray.dir);
+                    integrator.with_emission(self.total[k], beta, s, &prev, m, &hit, &sp, ray.dir);
             }
             // An emitter's vertex adds nothing more: its light samples
             // and BSDF give zero.
@@ -496,14 +604,21 @@ impl ArrayWave {
             if depth >= s.last_bounce() {
                 continue;
             }
-            self.at.push(i as u32);
-            self.albedo.push(albedo);
+            self.from.push(v as u32);
+            self.ray_of.push(j as u32);
+            self.lanes[to] = 1.0;
+            self.lit[to] = if s.counts(depth + 1) { 1.0 } else { 0.0 };
+            for a in 0..3 {
+                self.albedo[a][to] = albedo[a];
+            }
         }
-        // The vertices' lists: hit data gathered, padded with the last.
-        // Every value is written here or by the surface pass.
-        let count = self.at.len();
+        let count = self.from.len();
         let padded = count.div_ceil(L) * L;
+        self.compact();
+        // The vertices' lists: hit data gathered, padded with the last;
+        // every other value is written by the surface pass.
         for lists in [
+            &mut self.albedo,
             &mut self.dir,
             &mut self.w,
             &mut self.p,
@@ -518,15 +633,42 @@ impl ArrayWave {
             sized(&mut self.normal[k], padded);
         }
         sized(std::slice::from_mut(&mut self.plain), padded);
-        self.sphere.resize(padded, false);
+        sized(std::slice::from_mut(&mut self.lanes), padded);
+        sized(std::slice::from_mut(&mut self.lit), padded);
+        if self.sphere.len() < padded {
+            self.sphere.resize(padded, false);
+        }
+        self.lanes[count..padded].fill(0.0);
+        self.lit[count..padded].fill(0.0);
+        (self.count, self.padded) = (count, padded);
+        let (rays, hits) = (&self.rays[..], &self.hits[..]);
+        let (ray_of, lanes) = (&self.ray_of[..], &self.lanes[..]);
+        let sphere = &mut self.sphere[..];
+        let albedo = self.albedo.each_mut().map(|l| &mut l[..]);
+        let dir = self.dir.each_mut().map(|l| &mut l[..]);
+        let w = self.w.each_mut().map(|l| &mut l[..]);
+        let corner = self
+            .corner
+            .each_mut()
+            .map(|c| c.each_mut().map(|l| &mut l[..]));
+        let normal = self
+            .normal
+            .each_mut()
+            .map(|c| c.each_mut().map(|l| &mut l[..]));
         for v in 0..padded {
-            let i = self.at[v.min(count - 1)] as usize;
-            let (ray, hit) = (&self.rays[i], self.hits[i].expect("a vertex's hit"));
-            let p = hit.prim as usize;
+            let last = v.min(count - 1);
+            if lanes[last] == 0.0 {
+                // A path that went on alone: its lanes compute nothing
+                // that is used.
+                continue;
+            }
+            let j = ray_of[last] as usize;
+            let (ray, hit) = (&rays[j], hits[j].expect("a vertex's hit"));
             // A sphere's point is the scalar function's (below), and it
             // has no lift: its lanes take zeros meanwhile.
-            self.sphere[v] = p >= scene.mesh.len();
-            let (corners, normals, w) = if self.sphere[v] {
+            let p = hit.prim as usize;
+            sphere[v] = p >= scene.mesh.len();
+            let (corners, normals, bary) = if sphere[v] {
                 ([Vec3::ZERO; 3], [Vec3::ZERO; 3], [0.0; 3])
             } else {
                 (
@@ -536,11 +678,12 @@ impl ArrayWave {
                 )
             };
             for a in 0..3 {
-                self.dir[a][v] = ray.dir[a];
-                self.w[a][v] = w[a];
+                albedo[a][v] = albedo[a][last];
+                dir[a][v] = ray.dir[a];
+                w[a][v] = bary[a];
                 for c in 0..3 {
-                    self.corner[c][a][v] = corners[c][a];
-                    self.normal[c][a][v] = normals[c][a];
+                    corner[c][a][v] = corners[c][a];
+                    normal[c][a][v] = normals[c][a];
                 }
             }
         }
@@ -548,79 +691,102 @@ impl ArrayWave {
         // Spheres, and lanes whose normals left the plain case: the
         // scalar function.
         for v in 0..count {
-            if self.plain[v] != 0.0 && !self.sphere[v] {
+            if self.lanes[v] == 0.0 || (self.plain[v] != 0.0 && !self.sphere[v]) {
                 continue;
             }
-            let i = self.at[v] as usize;
-            let sp = scene.surface_point(&self.rays[i], &self.hits[i].expect("a vertex's hit"));
-            for a in 0..3 {
-                self.p[a][v] = sp.position[a];
-                self.error[a][v] = sp.error[a];
-                self.ng[a][v] = sp.geometric_normal[a];
-                self.ns[a][v] = sp.shading_normal[a];
-            }
+            let j = self.ray_of[v] as usize;
+            let hit = self.hits[j].expect("a vertex's hit");
+            let sp = scene.surface_point(&self.rays[j], &hit);
+            set_lane(&mut self.p, v, sp.position);
+            set_lane(&mut self.error, v, sp.error);
+            set_lane(&mut self.ng, v, sp.geometric_normal);
+            set_lane(&mut self.ns, v, sp.shading_normal);
         }
     }
 
-    /// Path `k`, whose ray's closest hit is `hit` at a vertex the lanes
-    /// do not take, takes the bounce as the paths' states take it
-    /// ([`Integrator::arrive_at`], `light_at`, `go_on`), its shadow rays
-    /// on the tape: it arrives, records its direct light, and leaves at
-    /// once (leaving draws from the path's stream after the light stream
-    /// is split off, as alone); its direct light joins its total when the
-    /// shadow rays are answered.
+    /// Each kept slot takes its path's state from the slot it was in
+    /// (`from`, rising, never below the slot it fills: so in place). Where
+    /// its ray left is not moved: it is read at the slot it was in, when
+    /// arriving, and the vertex's own lists replace it when leaving.
+    fn compact(&mut self) {
+        let from = &self.from[..];
+        fn gather<T: Copy>(list: &mut [T], from: &[u32]) {
+            for (to, &v) in from.iter().enumerate() {
+                list[to] = list[v as usize];
+            }
+        }
+        gather(&mut self.path, from);
+        gather(&mut self.depth, from);
+        for a in 0..3 {
+            gather(&mut self.beta[a], from);
+        }
+        gather(&mut self.rng.state, from);
+        gather(&mut self.rng.inc, from);
+    }
+
+    /// Slot `v`'s path, whose `ray`'s closest hit is `hit` at a vertex
+    /// the lanes do not take, takes the bounce as the paths' states take
+    /// it ([`Integrator::arrive_at`], `light_at`, `go_on`), its shadow
+    /// rays on the tape: it arrives, records its direct light, and leaves
+    /// at once (leaving draws from the path's stream after the light
+    /// stream is split off, as alone); its direct light joins its total
+    /// when the shadow rays are answered. Whether it goes on, in slot
+    /// `to`.
+    #[allow(clippy::too_many_arguments)]
     fn alone<A: Accel>(
         &mut self,
         integrator: &Integrator<A>,
         s: &PathSettings,
-        k: usize,
+        v: usize,
+        ray: Ray,
         hit: Hit,
-        rng: &mut Rng,
+        to: usize,
         counters: &mut TraceCounters,
-    ) {
+    ) -> bool {
+        let k = self.path[v] as usize;
         let mut walk = Walk {
             total: self.total[k],
-            beta: self.beta[k],
-            ray: self.ray[k],
-            prev: self.prev[k],
-            depth: self.depth[k],
+            beta: lane(&self.beta, v),
+            ray,
+            prev: self.prev(v),
+            depth: self.depth[v],
         };
+        let mut rng = self.rng.get(v);
         let vertex = integrator.arrive(&mut walk, Some(hit), None, s);
         self.total[k] = walk.total;
         let Some(vertex) = vertex else {
-            return;
+            return false;
         };
         let (first_term, first_ray) = self.tape.ends();
         let mut deferred = Deferred {
             tape: &mut self.tape,
             counters,
         };
-        let lit = integrator.light(walk.depth, &vertex, s, rng, &mut deferred);
+        let lit = integrator.light(walk.depth, &vertex, s, &mut rng, &mut deferred);
         let direct = lit.then(|| Span::since(first_term, first_ray, &self.tape));
         let beta = walk.beta;
-        let goes = integrator.leave(&mut walk, &vertex, s, rng);
-        (self.beta[k], self.prev[k], self.ray[k], self.depth[k]) =
-            (walk.beta, walk.prev, walk.ray, walk.depth);
+        let goes = integrator.leave(&mut walk, &vertex, s, &mut rng);
         self.alone.push(Alone {
             path: k as u32,
             beta,
             direct,
-            goes,
+            goes: goes.then_some((to as u32, walk, rng)),
         });
+        goes
     }
 
     /// Each vertex's facing, shading frame and terminator lift, in lanes
     /// (the operations of `Integrator::arrive`, `Frame::new` and
     /// `Scene::shadow_lift`).
     fn vertices(&mut self, plan: &ArrayPlan) {
-        let padded = self.dir[0].len();
+        let padded = self.padded;
         for lists in [&mut self.s, &mut self.t, &mut self.lift] {
             sized(lists, padded);
         }
         sized(std::slice::from_mut(&mut self.lifted), padded);
         vertex_pass(plan.avx2, self);
         // `Scene::shadow_lift`: none on a sphere.
-        for v in 0..self.at.len() {
+        for v in 0..padded {
             if self.sphere[v] {
                 self.lifted[v] = 0.0;
                 for a in 0..3 {
@@ -632,9 +798,8 @@ impl ArrayWave {
 
     /// Each vertex's light stream, and its light samples' terms and
     /// shadow rays, in lanes (`Integrator::direct` for area lights).
-    fn light(&mut self, plan: &ArrayPlan, streams: &mut [Rng]) {
-        let s = &plan.s;
-        let padded = self.dir[0].len();
+    fn light(&mut self, plan: &ArrayPlan) {
+        let padded = self.padded;
         let slots = plan.groups().map(|(_, n)| n as usize).sum();
         self.term.resize_with(slots, Default::default);
         self.has_ray.resize_with(slots, Vec::new);
@@ -645,26 +810,18 @@ impl ArrayWave {
             sized(std::slice::from_mut(&mut self.has_ray[j]), padded);
             sized(&mut self.shadow[j], padded);
         }
-        self.light_stream.clear();
-        for &i in &self.at {
-            let k = self.live[i as usize] as usize;
-            // `Integrator::light_stream`: split at every vertex that is
-            // not specular (none here is), used or not.
-            let light_stream = streams[k].split();
-            self.light_stream
-                .push(s.counts(self.depth[k] + 1).then_some(light_stream));
-        }
+        // `Integrator::light_stream`: split at every vertex that is not
+        // specular (none here is), used or not. Every slot splits: a
+        // path that went on alone gets its generator back when leaving.
+        self.light_rng.sized(padded);
+        split_pass(plan.avx2, self);
         // An area light's two numbers per vertex, in `draws`.
-        zeros(&mut self.draws, padded);
+        sized(&mut self.draws, padded);
         let mut slot = 0;
         for (source, n) in plan.groups() {
             for _ in 0..n {
                 if let Source::Area(_) | Source::Ambient { .. } = source {
-                    for (i, stream) in self.light_stream.iter_mut().enumerate() {
-                        if let Some(stream) = stream {
-                            (self.draws[0][i], self.draws[1][i]) = stream.next_2d();
-                        }
-                    }
+                    light_draws_pass(plan.avx2, self);
                 }
                 light_pass(plan, self, source, slot);
                 slot += 1;
@@ -677,106 +834,269 @@ impl ArrayWave {
     /// summed, times the path's throughput.
     fn sum(&mut self, plan: &ArrayPlan) {
         let mut ray = 0;
-        for (v, &i) in self.at.iter().enumerate() {
-            if self.light_stream[v].is_none() {
-                continue;
-            }
-            let k = self.live[i as usize] as usize;
+        let blocked = &self.blocked[..];
+        let (lit, path) = (&self.lit[..self.count], &self.path[..]);
+        for (v, _) in lit.iter().enumerate().filter(|(_, &l)| l != 0.0) {
             let mut sum = Vec3::ZERO;
             let mut slot = 0;
             for (_, n) in plan.groups() {
                 let mut group = Vec3::ZERO;
                 for _ in 0..n {
-                    let term = if self.has_ray[slot][v] != 0.0 {
+                    if self.has_ray[slot][v] != 0.0 {
                         ray += 1;
-                        if self.blocked[ray - 1] {
-                            Vec3::ZERO
+                        if !blocked[ray - 1] {
+                            group += lane(&self.term[slot], v);
                         } else {
-                            lane(&self.term[slot], v)
+                            group += Vec3::ZERO;
                         }
                     } else {
-                        Vec3::ZERO
-                    };
-                    group += term;
+                        group += Vec3::ZERO;
+                    }
                     slot += 1;
                 }
                 sum += group / n as f32;
             }
-            self.total[k] += self.beta[k] * sum;
+            self.total[path[v] as usize] += lane(&self.beta, v) * sum;
         }
     }
 
     /// Each vertex's path leaves along a BSDF sample (after Russian
     /// roulette from the second vertex on), as [`Integrator::leave`]
-    /// takes it: the draws path by path, the direction and ray in lanes;
-    /// the paths that go on are the next bounce's live ones.
-    fn leave(&mut self, plan: &ArrayPlan, streams: &mut [Rng]) {
-        let s = &plan.s;
-        let padded = self.dir[0].len();
-        zeros(&mut self.draws, padded);
-        self.going.clear();
-        self.going.resize(padded, 0.0);
-        for (v, &i) in self.at.iter().enumerate() {
-            let k = self.live[i as usize] as usize;
-            let rng = &mut streams[k];
-            if self.depth[k] >= 1 {
-                if let Some(p) = s.russian_roulette {
-                    if rng.next_f32() >= p {
-                        continue;
-                    }
-                    self.beta[k] /= p;
-                }
-            }
-            // `material::sample`'s two numbers (a Lambertian surface).
-            (self.draws[0][v], self.draws[1][v]) = rng.next_2d();
-            self.going[v] = 1.0;
-        }
+    /// takes it, and the paths that went on alone take their state back:
+    /// the slots that go on give the next bounce's rays.
+    fn leave(&mut self, plan: &ArrayPlan) {
+        let padded = self.padded;
+        sized(&mut self.draws, padded);
+        sized(std::slice::from_mut(&mut self.going), padded);
         sized(&mut self.next, padded);
-        bsdf_pass(plan.avx2, self);
-        self.next_live.clear();
-        for (v, &i) in self.at.iter().enumerate() {
-            if self.going[v] == 0.0 {
+        leave_pass(plan, self);
+        // Where each path left, for the next vertex: this one's lists,
+        // whole (a slot that does not go on is not read again, and the
+        // passes write these lists whole before they read them).
+        std::mem::swap(&mut self.prev_from, &mut self.p);
+        std::mem::swap(&mut self.prev_ng, &mut self.ng);
+        std::mem::swap(&mut self.prev_ns, &mut self.ns);
+        std::mem::swap(&mut self.prev_smooth, &mut self.lifted);
+        std::mem::swap(&mut self.prev_pdf, &mut self.draws[2]);
+        // The paths that went on alone, in their slots.
+        self.alone_rays.clear();
+        for a in &self.alone {
+            let Some((v, walk, rng)) = &a.goes else {
                 continue;
-            }
-            let k = self.live[i as usize] as usize;
-            self.beta[k] *= self.albedo[v];
-            if self.beta[k] == Vec3::ZERO || !self.beta[k].is_finite() {
-                continue;
-            }
-            let ng = lane(&self.ng, v);
-            self.prev[k] = Previous {
-                bsdf_pdf: self.draws[2][v],
-                from: lane(&self.p, v),
-                facing: Facing {
-                    geometric: ng,
-                    smooth: (self.lifted[v] != 0.0).then(|| lane(&self.ns, v)),
-                },
             };
-            self.ray[k] = Ray {
-                origin: Vec3::new(self.next[0][v], self.next[1][v], self.next[2][v]),
-                dir: Vec3::new(self.next[3][v], self.next[4][v], self.next[5][v]),
+            let v = *v as usize;
+            set_lane(&mut self.beta, v, walk.beta);
+            self.depth[v] = walk.depth;
+            self.prev_pdf[v] = walk.prev.bsdf_pdf;
+            set_lane(&mut self.prev_from, v, walk.prev.from);
+            set_lane(&mut self.prev_ng, v, walk.prev.facing.geometric);
+            let smooth = walk.prev.facing.smooth;
+            self.prev_smooth[v] = if smooth.is_some() { 1.0 } else { 0.0 };
+            set_lane(&mut self.prev_ns, v, smooth.unwrap_or(Vec3::ZERO));
+            self.rng.set(v, rng);
+            self.going[v] = 1.0;
+            self.alone_rays.push(walk.ray);
+        }
+        let mut alone_rays = self.alone_rays.iter();
+        self.rays.clear();
+        self.traced.clear();
+        let (going, lanes, next) = (&self.going[..], &self.lanes[..], &self.next);
+        for v in 0..self.count {
+            if going[v] == 0.0 {
+                continue;
+            }
+            self.traced.push(v as u32);
+            if lanes[v] == 0.0 {
+                self.rays
+                    .push(*alone_rays.next().expect("an alone path's ray"));
+                continue;
+            }
+            self.rays.push(Ray {
+                origin: Vec3::new(next[0][v], next[1][v], next[2][v]),
+                dir: Vec3::new(next[3][v], next[4][v], next[5][v]),
                 t_min: 0.0,
                 t_max: f32::INFINITY,
-            };
-            self.depth[k] += 1;
-            self.next_live.push(k as u32);
+            });
         }
-        // With the paths that went on alone, in the order of the paths
-        // (both lists are): the order the paths' states trace them in.
-        let mut alone = self.alone.iter().filter(|a| a.goes).map(|a| a.path);
-        if let Some(first) = alone.next() {
-            self.live.clear();
-            let mut lanes = self.next_live.iter().copied().peekable();
-            for k in std::iter::once(first).chain(alone) {
-                while let Some(l) = lanes.next_if(|&l| l < k) {
-                    self.live.push(l);
-                }
-                self.live.push(k);
-            }
-            self.live.extend(lanes);
-            return;
+    }
+}
+
+/// Eight generators side by side: [`Rng`] lane by lane, its bits.
+#[derive(Clone, Copy)]
+struct Rng8 {
+    state: [u64; L],
+    inc: [u64; L],
+}
+
+// Lane loops index their arrays, as `F8`'s do.
+#[allow(clippy::needless_range_loop)]
+impl Rng8 {
+    #[inline(always)]
+    fn load(r: &Rngs, i: usize) -> Rng8 {
+        Rng8 {
+            state: r.state[i..i + L].try_into().expect("eight states"),
+            inc: r.inc[i..i + L].try_into().expect("eight increments"),
         }
-        std::mem::swap(&mut self.live, &mut self.next_live);
+    }
+
+    #[inline(always)]
+    fn store(&self, r: &mut Rngs, i: usize) {
+        r.state[i..i + L].copy_from_slice(&self.state);
+        r.inc[i..i + L].copy_from_slice(&self.inc);
+    }
+
+    /// `Rng::next_u32` in the lanes of `mask`; the others keep their
+    /// state (their outputs are not used).
+    #[inline(always)]
+    fn next_u32(&mut self, mask: F8) -> [u32; L] {
+        let mut out = [0; L];
+        for l in 0..L {
+            let old = self.state[l];
+            let new = old
+                .wrapping_mul(6_364_136_223_846_793_005)
+                .wrapping_add(self.inc[l]);
+            // All ones where the lane steps: a select without a branch.
+            let keep = 0u64.wrapping_sub(u64::from(mask.0[l].to_bits() != 0));
+            self.state[l] = (new & keep) | (old & !keep);
+            let xorshifted = (((old >> 18) ^ old) >> 27) as u32;
+            out[l] = xorshifted.rotate_right((old >> 59) as u32);
+        }
+        out
+    }
+
+    /// `Rng::next_f32` in the lanes of `mask`.
+    #[inline(always)]
+    fn next_f32(&mut self, mask: F8) -> F8 {
+        F8::unit(&self.next_u32(mask))
+    }
+
+    /// `Rng::split`, every lane.
+    #[inline(always)]
+    fn split(&mut self) -> Rng8 {
+        let all = F8::splat(f32::from_bits(u32::MAX));
+        let (hi, lo) = (self.next_u32(all), self.next_u32(all));
+        let mut child = Rng8 {
+            state: [0; L],
+            inc: [0; L],
+        };
+        for l in 0..L {
+            let key = (u64::from(hi[l]) << 32) | u64::from(lo[l]);
+            child.state[l] = crate::geom::sampling::mix(key);
+            child.inc[l] = (self.inc[l] ^ 0x5851_F42D_4C95_7F2D) | 1;
+        }
+        child
+    }
+}
+
+/// The generators' passes behind their proof of AVX2.
+fn split_pass(_avx2: Avx2, wave: &mut ArrayWave) {
+    // SAFETY: `Avx2` exists only where the CPU runs AVX2
+    // (`Avx2::detect`), the pass's one requirement.
+    unsafe { split_avx2(wave) }
+}
+
+/// Each slot's light stream split off its generator (`Rng::split`),
+/// eight slots at a time.
+///
+/// # Safety
+/// The CPU must run AVX2.
+#[target_feature(enable = "avx2")]
+unsafe fn split_avx2(wave: &mut ArrayWave) {
+    for i in (0..wave.padded).step_by(L) {
+        let mut rng = Rng8::load(&wave.rng, i);
+        let light = rng.split();
+        rng.store(&mut wave.rng, i);
+        light.store(&mut wave.light_rng, i);
+    }
+}
+
+fn light_draws_pass(_avx2: Avx2, wave: &mut ArrayWave) {
+    // SAFETY: as `split_pass`.
+    unsafe { light_draws_avx2(wave) }
+}
+
+/// Two numbers from each slot's light stream into `draws[0..2]`
+/// (`Rng::next_2d`), eight slots at a time.
+///
+/// # Safety
+/// The CPU must run AVX2.
+#[target_feature(enable = "avx2")]
+unsafe fn light_draws_avx2(wave: &mut ArrayWave) {
+    let all = F8::splat(f32::from_bits(u32::MAX));
+    for i in (0..wave.padded).step_by(L) {
+        let mut light = Rng8::load(&wave.light_rng, i);
+        light.next_f32(all).store(&mut wave.draws[0][i..]);
+        light.next_f32(all).store(&mut wave.draws[1][i..]);
+        light.store(&mut wave.light_rng, i);
+    }
+}
+
+fn leave_pass(plan: &ArrayPlan, wave: &mut ArrayWave) {
+    // SAFETY: `plan.avx2` proves the CPU runs AVX2, the pass's one
+    // requirement.
+    unsafe { leave_avx2(&plan.s, wave) }
+}
+
+/// Each vertex's path leaves (`Integrator::leave` at a Lambertian
+/// vertex), eight slots at a time: Russian roulette from the second
+/// vertex on, the BSDF's two numbers, a cosine-weighted direction
+/// (`material::sample`) with its density in `draws[2]`, and its ray
+/// (`Ray::spawn`) in `next`; the throughput times the albedo, and
+/// `going` for the paths that go on with a throughput neither zero nor
+/// infinite. The slots of paths that went on alone compute values that
+/// are replaced.
+///
+/// # Safety
+/// The CPU must run AVX2.
+#[target_feature(enable = "avx2")]
+unsafe fn leave_avx2(s: &PathSettings, wave: &mut ArrayWave) {
+    let (zero, one, inf) = (F8::splat(0.0), F8::splat(1.0), F8::splat(f32::INFINITY));
+    let frac_1_pi = F8::splat(std::f32::consts::FRAC_1_PI);
+    let (roulette, p) = match s.russian_roulette {
+        Some(p) => (true, F8::splat(p)),
+        None => (false, one),
+    };
+    for i in (0..wave.padded).step_by(L) {
+        let lanes = F8::load(&wave.lanes[i..]).gt(zero);
+        let depth: [u32; L] = wave.depth[i..i + L].try_into().expect("eight depths");
+        // All ones where a lane takes Russian roulette.
+        let rolled =
+            F8(depth.map(|d| f32::from_bits(0u32.wrapping_sub(u32::from(roulette && d >= 1)))));
+        let rolled = rolled.and(lanes);
+        let mut rng = Rng8::load(&wave.rng, i);
+        let u = rng.next_f32(rolled);
+        let survives = u.lt(p);
+        let going = lanes.and_not(rolled.and_not(survives));
+        let mut beta = v3(&wave.beta, i);
+        beta = map3!(beta, |x| F8::select(rolled.and(survives), x / p, x));
+        // `material::sample`'s two numbers (a Lambertian surface).
+        let (u0, u1) = (rng.next_f32(going), rng.next_f32(going));
+        rng.store(&mut wave.rng, i);
+        let local = cosine_hemisphere8(u0, u1);
+        let (s, t, n) = (v3(&wave.s, i), v3(&wave.t, i), v3(&wave.ns, i));
+        let wi = each3!(|k| s[k] * local[0] + t[k] * local[1] + n[k] * local[2]);
+        let ng = v3(&wave.ng, i);
+        // (As `leave` tests them: a NaN would go on.)
+        let going = going
+            .and_not(local[2].le(zero))
+            .and_not(dot(wi, ng).le(zero));
+        let beta = each3!(|k| beta[k] * F8::load(&wave.albedo[k][i..]));
+        let black = beta[0].ne(zero).or(beta[1].ne(zero)).or(beta[2].ne(zero));
+        let finite = beta[0]
+            .abs()
+            .lt(inf)
+            .and(beta[1].abs().lt(inf))
+            .and(beta[2].abs().lt(inf));
+        let going = going.and(black).and(finite);
+        F8::select(going, one, zero).store(&mut wave.going[i..]);
+        store3(beta, &mut wave.beta, i);
+        (local[2] * frac_1_pi).store(&mut wave.draws[2][i..]);
+        let origin = spawn(v3(&wave.p, i), v3(&wave.error, i), ng, wi);
+        for k in 0..3 {
+            origin[k].store(&mut wave.next[k][i..]);
+            wi[k].store(&mut wave.next[3 + k][i..]);
+        }
+        wave.depth[i..i + L].copy_from_slice(&depth.map(|d| d + 1));
     }
 }
 
@@ -790,46 +1110,6 @@ fn cosine_hemisphere8(u: F8, v: F8) -> [F8; 3] {
         r * sin,
         (F8::splat(1.0) - u).max(F8::splat(0.0)).sqrt(),
     ]
-}
-
-/// The BSDF pass behind its proof of AVX2.
-fn bsdf_pass(_avx2: Avx2, wave: &mut ArrayWave) {
-    // SAFETY: `Avx2` exists only where the CPU runs AVX2
-    // (`Avx2::detect`), the pass's one requirement.
-    unsafe { bsdf_avx2(wave) }
-}
-
-/// A cosine-weighted direction from each vertex whose path goes on
-/// (`material::sample` for a Lambertian surface, `Integrator::leave`), and
-/// its ray (`Ray::spawn`), eight vertices at a time; `going` keeps the
-/// paths whose direction leaves the facet's front, `draws[2]` takes the
-/// direction's density.
-///
-/// # Safety
-/// The CPU must run AVX2.
-#[target_feature(enable = "avx2")]
-unsafe fn bsdf_avx2(wave: &mut ArrayWave) {
-    let zero = F8::splat(0.0);
-    let frac_1_pi = F8::splat(std::f32::consts::FRAC_1_PI);
-    for i in (0..wave.dir[0].len()).step_by(L) {
-        let local =
-            cosine_hemisphere8(F8::load(&wave.draws[0][i..]), F8::load(&wave.draws[1][i..]));
-        let (s, t, n) = (v3(&wave.s, i), v3(&wave.t, i), v3(&wave.ns, i));
-        let wi = each3!(|k| s[k] * local[0] + t[k] * local[1] + n[k] * local[2]);
-        let ng = v3(&wave.ng, i);
-        let going = F8::load(&wave.going[i..]).gt(zero);
-        // (As `leave` tests them: a NaN would go on.)
-        let ok = going
-            .and_not(local[2].le(zero))
-            .and_not(dot(wi, ng).le(zero));
-        F8::select(ok, F8::splat(1.0), zero).store(&mut wave.going[i..]);
-        (local[2] * frac_1_pi).store(&mut wave.draws[2][i..]);
-        let origin = spawn(v3(&wave.p, i), v3(&wave.error, i), ng, wi);
-        for k in 0..3 {
-            origin[k].store(&mut wave.next[k][i..]);
-            wi[k].store(&mut wave.next[3 + k][i..]);
-        }
-    }
 }
 
 /// The surface pass behind its proof of AVX2.
@@ -858,7 +1138,7 @@ unsafe fn surface_avx2(wave: &mut ArrayWave) {
         F8::splat(3.0),
     );
     let (tiny, inf) = (F8::splat(f32::MIN_POSITIVE), F8::splat(f32::INFINITY));
-    for i in (0..wave.dir[0].len()).step_by(L) {
+    for i in (0..wave.padded).step_by(L) {
         let w = v3(&wave.w, i);
         let c = each3!(|k| v3(&wave.corner[k], i));
         let nm = each3!(|k| v3(&wave.normal[k], i));
@@ -918,7 +1198,7 @@ fn vertex_pass(_avx2: Avx2, wave: &mut ArrayWave) {
 #[target_feature(enable = "avx2")]
 unsafe fn vertex_avx2(wave: &mut ArrayWave) {
     let (zero, one) = (F8::splat(0.0), F8::splat(1.0));
-    for i in (0..wave.dir[0].len()).step_by(L) {
+    for i in (0..wave.padded).step_by(L) {
         let wo = map3!(v3(&wave.dir, i), |x| -x);
         let (ng0, ns0) = (v3(&wave.ng, i), v3(&wave.ns, i));
         let back = dot(wo, ng0).lt(zero);
@@ -978,8 +1258,7 @@ unsafe fn light_avx2(s: &PathSettings, wave: &mut ArrayWave, source: Source, slo
     let mis = matches!(source, Source::Area(_) | Source::Ambient { .. })
         && s.estimator == DirectEstimator::Mis;
     let samples = mis.then(|| F8::splat(s.light_samples.max(1) as f32 * 1.0));
-    let count = wave.at.len();
-    for i in (0..wave.dir[0].len()).step_by(L) {
+    for i in (0..wave.padded).step_by(L) {
         let p = v3(&wave.p, i);
         let (ng, ns) = (v3(&wave.ng, i), v3(&wave.ns, i));
         let lifted = F8::load(&wave.lifted[i..]).gt(zero);
@@ -1057,14 +1336,11 @@ unsafe fn light_avx2(s: &PathSettings, wave: &mut ArrayWave, source: Source, slo
         // unless the point is lifted; the BSDF (Lambertian) not zero.
         let z = dot(wi, ns);
         let in_front = dot(wi, ng).gt(zero);
-        let mut albedo = [zero; 3];
-        for l in 0..L {
-            let a = wave.albedo[(i + l).min(count - 1)];
-            for k in 0..3 {
-                albedo[k].0[l] = a[k];
-            }
-        }
-        let f = map3!(albedo, |x| F8::select(z.gt(zero), x * frac_1_pi, zero));
+        let f = map3!(v3(&wave.albedo, i), |x| F8::select(
+            z.gt(zero),
+            x * frac_1_pi,
+            zero
+        ));
         let black = f[0].ne(zero).or(f[1].ne(zero)).or(f[2].ne(zero));
         let ok = some.and(z.gt(zero)).and(in_front.or(lifted)).and(black);
         let weight = match samples {
@@ -1108,5 +1384,53 @@ unsafe fn light_avx2(s: &PathSettings, wave: &mut ArrayWave, source: Source, slo
         }
         zero.store(&mut ray[6][i..]);
         (far * end).store(&mut ray[7][i..]);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Eight generators side by side give each generator's own numbers,
+    /// bit for bit: lanes masked out keep their state, and a split gives
+    /// each lane the child `Rng::split` gives.
+    #[test]
+    fn generators_in_lanes_give_the_numbers_of_each_alone() {
+        let mut alone: Vec<Rng> = (0..L as u32)
+            .map(|l| Rng::for_sample(7, l, 3 * l, 11 + l))
+            .collect();
+        let mut rngs = Rngs::default();
+        rngs.sized(L);
+        for (l, r) in alone.iter().enumerate() {
+            rngs.set(l, r);
+        }
+        let mut lanes = Rng8::load(&rngs, 0);
+        let (on, off) = (f32::from_bits(u32::MAX), 0.0);
+        for round in 0..50 {
+            // Every third lane, shifted each round, sits out.
+            let mask = F8(std::array::from_fn(|l| {
+                if (l + round) % 3 == 0 {
+                    off
+                } else {
+                    on
+                }
+            }));
+            let out = lanes.next_f32(mask);
+            for (l, r) in alone.iter_mut().enumerate() {
+                if mask.is(l) {
+                    assert_eq!(out.0[l].to_bits(), r.next_f32().to_bits());
+                }
+            }
+        }
+        let children = lanes.split();
+        let mut split = Rngs::default();
+        split.sized(L);
+        lanes.store(&mut rngs, 0);
+        children.store(&mut split, 0);
+        for (l, r) in alone.iter_mut().enumerate() {
+            let child = r.split();
+            assert_eq!(rngs.get(l).parts(), r.parts(), "lane {l}");
+            assert_eq!(split.get(l).parts(), child.parts(), "lane {l}'s child");
+        }
     }
 }
