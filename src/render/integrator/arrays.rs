@@ -252,6 +252,12 @@ pub struct ArrayWave {
     shadow: Vec<[Vec<f32>; 8]>,
     shadow_rays: Vec<Ray>,
     blocked: Vec<bool>,
+    /// Where each shadow ray in lanes came from (its sample and slot),
+    /// whether each sample's light arrived (a mask), and each vertex's
+    /// direct light times its throughput.
+    shadow_at: Vec<(u32, u32)>,
+    open: Vec<Vec<f32>>,
+    direct: Lists,
     /// The numbers of an area light's sample (in the light pass) and of
     /// the BSDF's with its density (when leaving), which paths go on (a
     /// mask), and their next rays.
@@ -385,6 +391,9 @@ impl ArrayWave {
             + held(&self.plain)
             + held(&self.sphere)
             + held(&self.shadow_rays)
+            + held(&self.shadow_at)
+            + self.open.iter().map(held).sum::<usize>()
+            + lists(&self.direct)
             + held(&self.blocked)
             + held(&self.going)
             + held(&self.alone_rays)
@@ -479,19 +488,7 @@ impl ArrayWave {
             self.vertices(plan);
             times.paths += lap(&mut times.steps.arrive);
             self.light(plan);
-            self.shadow_rays.clear();
-            for v in 0..self.slots() {
-                if self.lit[v] == 0.0 {
-                    continue;
-                }
-                for j in 0..self.term.len() {
-                    if self.has_ray[j][v] != 0.0 {
-                        let r = &self.shadow[j];
-                        self.shadow_rays
-                            .push(Ray::from_flat(&std::array::from_fn(|c| r[c][v])));
-                    }
-                }
-            }
+            self.shadow_gather();
             let in_lanes = self.shadow_rays.len();
             self.shadow_rays.extend_from_slice(self.tape.rays());
             times.paths += lap(&mut times.steps.light);
@@ -525,11 +522,6 @@ impl ArrayWave {
         }
         values.clear();
         values.extend_from_slice(&self.total);
-    }
-
-    /// The slots at a vertex this bounce (lanes' and alone).
-    fn slots(&self) -> usize {
-        self.count
     }
 
     /// Where slot `v`'s ray left.
@@ -829,34 +821,43 @@ impl ArrayWave {
         }
     }
 
+    /// The shadow rays of the vertices that take direct light, vertex by
+    /// vertex and sample by sample, and where each came from; `open`
+    /// cleared for their answers.
+    fn shadow_gather(&mut self) {
+        let padded = self.padded;
+        self.shadow_rays.clear();
+        self.shadow_at.clear();
+        self.open.resize_with(self.term.len(), Vec::new);
+        for open in &mut self.open {
+            sized(std::slice::from_mut(open), padded);
+            open[..padded].fill(0.0);
+        }
+        let lit = &self.lit[..self.count];
+        for (v, _) in lit.iter().enumerate().filter(|(_, &l)| l != 0.0) {
+            for (j, (has, r)) in self.has_ray.iter().zip(&self.shadow).enumerate() {
+                if has[v] != 0.0 {
+                    let ray = Ray::from_flat(&std::array::from_fn(|c| r[c][v]));
+                    self.shadow_rays.push(ray);
+                    self.shadow_at.push((j as u32, v as u32));
+                }
+            }
+        }
+    }
+
     /// Each vertex's direct light, as the tape sums it: each light's
     /// samples (zero where blocked or without a ray) averaged, the means
-    /// summed, times the path's throughput.
+    /// summed, times the path's throughput (in lanes), added to its
+    /// path's sum.
     fn sum(&mut self, plan: &ArrayPlan) {
-        let mut ray = 0;
-        let blocked = &self.blocked[..];
+        for (&(j, v), &blocked) in self.shadow_at.iter().zip(&self.blocked) {
+            self.open[j as usize][v as usize] = if blocked { 0.0 } else { 1.0 };
+        }
+        sized(&mut self.direct, self.padded);
+        sum_pass(plan, self);
         let (lit, path) = (&self.lit[..self.count], &self.path[..]);
         for (v, _) in lit.iter().enumerate().filter(|(_, &l)| l != 0.0) {
-            let mut sum = Vec3::ZERO;
-            let mut slot = 0;
-            for (_, n) in plan.groups() {
-                let mut group = Vec3::ZERO;
-                for _ in 0..n {
-                    if self.has_ray[slot][v] != 0.0 {
-                        ray += 1;
-                        if !blocked[ray - 1] {
-                            group += lane(&self.term[slot], v);
-                        } else {
-                            group += Vec3::ZERO;
-                        }
-                    } else {
-                        group += Vec3::ZERO;
-                    }
-                    slot += 1;
-                }
-                sum += group / n as f32;
-            }
-            self.total[path[v] as usize] += lane(&self.beta, v) * sum;
+            self.total[path[v] as usize] += lane(&self.direct, v);
         }
     }
 
@@ -985,6 +986,41 @@ impl Rng8 {
             child.inc[l] = (self.inc[l] ^ 0x5851_F42D_4C95_7F2D) | 1;
         }
         child
+    }
+}
+
+fn sum_pass(plan: &ArrayPlan, wave: &mut ArrayWave) {
+    // SAFETY: `plan.avx2` proves the CPU runs AVX2, the pass's one
+    // requirement.
+    unsafe { sum_avx2(plan, wave) }
+}
+
+/// Each vertex's direct light times its throughput into `direct`, as
+/// [`super::ShadowTape::sum`] sums it: each light's samples (zero where
+/// blocked or without a ray) averaged, the means summed; eight vertices
+/// at a time.
+///
+/// # Safety
+/// The CPU must run AVX2.
+#[target_feature(enable = "avx2")]
+unsafe fn sum_avx2(plan: &ArrayPlan, wave: &mut ArrayWave) {
+    let zero = F8::splat(0.0);
+    for i in (0..wave.padded).step_by(L) {
+        let mut sum = [zero; 3];
+        let mut slot = 0;
+        for (_, n) in plan.groups() {
+            let mut group = [zero; 3];
+            for _ in 0..n {
+                let open = F8::load(&wave.open[slot][i..]).gt(zero);
+                let term = v3(&wave.term[slot], i);
+                group = each3!(|k| group[k] + F8::select(open, term[k], zero));
+                slot += 1;
+            }
+            let n = F8::splat(n as f32);
+            sum = each3!(|k| sum[k] + group[k] / n);
+        }
+        let beta = v3(&wave.beta, i);
+        store3(each3!(|k| beta[k] * sum[k]), &mut wave.direct, i);
     }
 }
 
