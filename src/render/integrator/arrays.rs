@@ -647,14 +647,13 @@ impl ArrayWave {
             .normal
             .each_mut()
             .map(|c| c.each_mut().map(|l| &mut l[..]));
-        for v in 0..padded {
-            let last = v.min(count - 1);
-            if lanes[last] == 0.0 {
+        for v in 0..count {
+            if lanes[v] == 0.0 {
                 // A path that went on alone: its lanes compute nothing
                 // that is used.
                 continue;
             }
-            let j = ray_of[last] as usize;
+            let j = ray_of[v] as usize;
             let (ray, hit) = (&rays[j], hits[j].expect("a vertex's hit"));
             // A sphere's point is the scalar function's (below), and it
             // has no lift: its lanes take zeros meanwhile.
@@ -670,12 +669,24 @@ impl ArrayWave {
                 )
             };
             for a in 0..3 {
-                albedo[a][v] = albedo[a][last];
                 dir[a][v] = ray.dir[a];
                 w[a][v] = bary[a];
                 for c in 0..3 {
                     corner[c][a][v] = corners[c][a];
                     normal[c][a][v] = normals[c][a];
+                }
+            }
+        }
+        // The padding repeats the last slot.
+        for v in count..padded {
+            sphere[v] = sphere[count - 1];
+            for a in 0..3 {
+                albedo[a][v] = albedo[a][count - 1];
+                dir[a][v] = dir[a][count - 1];
+                w[a][v] = w[a][count - 1];
+                for c in 0..3 {
+                    corner[c][a][v] = corner[c][a][count - 1];
+                    normal[c][a][v] = normal[c][a][count - 1];
                 }
             }
         }
