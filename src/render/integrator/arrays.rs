@@ -2,17 +2,20 @@
 //! arrays), stepped by passes that work eight paths at a time: the design
 //! `examples/soa_step.rs` measured at 2.9-3.05x the `PathState` step on
 //! the same hits, the same rays to the bit (docs/experiments.md, stop
-//! 51). Each bounce: the extension rays' closest hits in one batch; what
-//! each path sees there (emission, the sky), in the order and operations
-//! of [`Integrator::arrive`]; the surface points and vertices (facing,
+//! 51). The paths still going sit in slots, in the order of the paths,
+//! their state in lists indexed by the slot (stop 59). Each bounce: the
+//! extension rays' closest hits in one batch; what each path sees there
+//! (emission, the sky), in the order and operations of
+//! [`Integrator::arrive`]; the paths that go on from a vertex moved to
+//! the front of the slots; the surface points and vertices (facing,
 //! frame, the point lifted onto the smooth surface) in lanes; one light
 //! stream split off each path; every light sample with its MIS-weighted
 //! term and shadow ray in lanes; the shadow rays in one batch; each path's
-//! direct light summed as [`super::ShadowTape::sum`] sums it; Russian
-//! roulette and the BSDF's numbers path by path, its direction and ray in
-//! lanes, as [`Integrator::leave`] takes them. Every operation is the
-//! scalar code's, in its order (sine and cosine are libm's, lane by lane),
-//! so the image has the bits of the paths walked alone (tested).
+//! direct light summed in lanes as [`super::ShadowTape::sum`] sums it;
+//! Russian roulette, the BSDF's numbers, its direction and ray in lanes,
+//! as [`Integrator::leave`] takes them. The generators step in lanes too
+//! ([`Rng8`]). Every operation is the scalar code's, in its order, so the
+//! image has the bits of the paths walked alone (tested).
 //!
 //! The lanes take Lambertian vertices of smoothly shaded scenes lit by
 //! point, directional, rectangular area and ambient lights under light
@@ -181,8 +184,8 @@ type Lists = [Vec<f32>; 3];
 ///
 /// The paths still going sit in slots, in the order of the paths: each
 /// bounce, the ones that go on from their hits move to the front, their
-/// order kept (a stable compaction, fused with the gathering of their
-/// hits). A slot's state is in lists indexed by the slot, so the passes
+/// order kept (a stable compaction, in place). A slot's state is in
+/// lists indexed by the slot, so the passes
 /// read and write it eight slots at a time, with no index between a
 /// vertex and its path.
 #[derive(Default)]
