@@ -23,6 +23,28 @@ pub(crate) fn mix(mut z: u64) -> u64 {
     z ^ (z >> 31)
 }
 
+/// PCG32's next state after `state` (its LCG step).
+#[inline(always)]
+pub(crate) fn step(state: u64, inc: u64) -> u64 {
+    state
+        .wrapping_mul(6_364_136_223_846_793_005)
+        .wrapping_add(inc)
+}
+
+/// PCG32's output for `state` (XSH-RR).
+#[inline(always)]
+pub(crate) fn output(state: u64) -> u32 {
+    let xorshifted = (((state >> 18) ^ state) >> 27) as u32;
+    xorshifted.rotate_right((state >> 59) as u32)
+}
+
+/// The increment of a child of a generator whose increment is `inc`
+/// ([`Rng::split`]): a stream of its own.
+#[inline(always)]
+pub(crate) fn split_inc(inc: u64) -> u64 {
+    (inc ^ 0x5851_F42D_4C95_7F2D) | 1
+}
+
 impl Rng {
     pub fn new(seed: u64, stream: u64) -> Rng {
         let mut rng = Rng {
@@ -45,7 +67,7 @@ impl Rng {
         let key = (u64::from(self.next_u32()) << 32) | u64::from(self.next_u32());
         Rng {
             state: mix(key),
-            inc: (self.inc ^ 0x5851_F42D_4C95_7F2D) | 1,
+            inc: split_inc(self.inc),
         }
     }
 
@@ -70,12 +92,8 @@ impl Rng {
     #[inline]
     pub fn next_u32(&mut self) -> u32 {
         let old = self.state;
-        self.state = old
-            .wrapping_mul(6_364_136_223_846_793_005)
-            .wrapping_add(self.inc);
-        let xorshifted = (((old >> 18) ^ old) >> 27) as u32;
-        let rot = (old >> 59) as u32;
-        xorshifted.rotate_right(rot)
+        self.state = step(old, self.inc);
+        output(old)
     }
 
     /// Uniform in [0, 1).

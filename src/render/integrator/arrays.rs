@@ -32,7 +32,7 @@ use super::shadows::{Deferred, Span};
 use super::{Background, DirectEstimator, Integrator, PathSettings, Previous, Shading, ShadowTape};
 use crate::accel::native::cpu::Avx2;
 use crate::accel::{Accel, Coherence, TraceCounters};
-use crate::geom::sampling::Rng;
+use crate::geom::sampling::{self, Rng};
 use crate::geom::{gamma, Hit, Ray};
 use crate::render::f8::F8;
 use crate::render::light::Facing;
@@ -267,7 +267,6 @@ pub struct ArrayWave {
     draws: Lists,
     going: Vec<f32>,
     next: [Vec<f32>; 6],
-    alone_rays: Vec<Ray>,
 }
 
 /// Generators side by side: each one's state and increment
@@ -399,7 +398,6 @@ impl ArrayWave {
             + lists(&self.direct)
             + held(&self.blocked)
             + held(&self.going)
-            + held(&self.alone_rays)
             + lists(&self.draws)
             + lists(&self.next);
         for l in [
@@ -894,7 +892,6 @@ impl ArrayWave {
         std::mem::swap(&mut self.prev_smooth, &mut self.lifted);
         std::mem::swap(&mut self.prev_pdf, &mut self.draws[2]);
         // The paths that went on alone, in their slots.
-        self.alone_rays.clear();
         for a in &self.alone {
             let Some((v, walk, rng)) = &a.goes else {
                 continue;
@@ -910,9 +907,8 @@ impl ArrayWave {
             set_lane(&mut self.prev_ns, v, smooth.unwrap_or(Vec3::ZERO));
             self.rng.set(v, rng);
             self.going[v] = 1.0;
-            self.alone_rays.push(walk.ray);
         }
-        let mut alone_rays = self.alone_rays.iter();
+        let mut alone_rays = self.alone.iter().filter_map(|a| a.goes.as_ref());
         self.rays.clear();
         self.traced.clear();
         let (going, lanes, next) = (&self.going[..], &self.lanes[..], &self.next);
@@ -922,8 +918,8 @@ impl ArrayWave {
             }
             self.traced.push(v as u32);
             if lanes[v] == 0.0 {
-                self.rays
-                    .push(*alone_rays.next().expect("an alone path's ray"));
+                let (_, walk, _) = alone_rays.next().expect("an alone path's ray");
+                self.rays.push(walk.ray);
                 continue;
             }
             self.rays.push(Ray {
@@ -967,14 +963,11 @@ impl Rng8 {
         let mut out = [0; L];
         for l in 0..L {
             let old = self.state[l];
-            let new = old
-                .wrapping_mul(6_364_136_223_846_793_005)
-                .wrapping_add(self.inc[l]);
+            let new = sampling::step(old, self.inc[l]);
             // All ones where the lane steps: a select without a branch.
             let keep = 0u64.wrapping_sub(u64::from(mask.0[l].to_bits() != 0));
             self.state[l] = (new & keep) | (old & !keep);
-            let xorshifted = (((old >> 18) ^ old) >> 27) as u32;
-            out[l] = xorshifted.rotate_right((old >> 59) as u32);
+            out[l] = sampling::output(old);
         }
         out
     }
@@ -996,8 +989,8 @@ impl Rng8 {
         };
         for l in 0..L {
             let key = (u64::from(hi[l]) << 32) | u64::from(lo[l]);
-            child.state[l] = crate::geom::sampling::mix(key);
-            child.inc[l] = (self.inc[l] ^ 0x5851_F42D_4C95_7F2D) | 1;
+            child.state[l] = sampling::mix(key);
+            child.inc[l] = sampling::split_inc(self.inc[l]);
         }
         child
     }
