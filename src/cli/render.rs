@@ -629,23 +629,18 @@ fn same_file(a: &Path, b: &Path) -> bool {
     }
 }
 
-/// Rays per native packet in the renderer: sixteen (AVX-512 lanes, or two
-/// AVX2 registers a value), except eight where AVX-512 throttles
-/// ([`Isa::wide_vectors_throttle`]). On Sapphire Rapids, one thread
-/// pinned, `render -t 1 -r 160 120 -s 256 -m 5 -l 1 --seed 3`, six
-/// interleaved runs, median seconds with packets of 16 / of 8 / without
-/// packets: maxplanck 1.125 / 1.03 / 1.015, CBbunny 1.87 / 1.78 / 1.825:
-/// short bursts of 512-bit work between scalar shading cost the frame
-/// 5-11% there. On Zen 4 (stop 55, four alternating rounds, minimum
-/// seconds, 8 -> 16): CBempty 1.02 -> 0.903, maxplanck 0.707 -> 0.663,
-/// banana 0.407 -> 0.390, CBbunny 1.38 -> 1.33; with `HYBRID_ISA=avx2`
-/// (two registers a value against one) 1-4% faster. Packets give every
-/// ray the single-ray kernel's answer at either width, so the image does
-/// not depend on this choice.
+/// Rays per native packet in the renderer: sixteen, in AVX-512 lanes or
+/// two AVX2 registers a value. Packets give every ray the single-ray
+/// kernel's answer at either width, so the image does not depend on this
+/// choice. On Zen 4 (stop 55, four alternating rounds, minimum seconds,
+/// 8 -> 16): CBempty 1.02 -> 0.903, maxplanck 0.707 -> 0.663, CBbunny
+/// 1.38 -> 1.33. On an Intel Xeon (model 207), stop 60, one thread
+/// pinned, `render -t 1 -r 160 120 -s 128 -m 5 -l 1 --seed 3`, median of
+/// 15-25 alternating pairs, time with 16 over time with 8: CBempty 0.84, maxplanck 0.85,
+/// sky/bunny 0.93, banana 0.94, the default scene 0.95, CBbunny 0.97,
+/// CBspheres 0.96, CBspheres_lambertian 0.99. Eight had been kept on
+/// Intel since stop 49, when shading was scalar between the packets and
+/// sixteen cost that frame 5-11% (docs/experiments.md).
 pub fn render_packet_lanes() -> usize {
-    if Isa::wide_vectors_throttle() {
-        8
-    } else {
-        16
-    }
+    16
 }

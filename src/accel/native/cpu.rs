@@ -113,15 +113,6 @@ impl Isa {
         Isa::requested().map(|_| ())
     }
 
-    /// Whether 512-bit vectors run here at a cost the renderer's packets
-    /// should avoid: AVX-512 within the ceiling on an Intel CPU, whose
-    /// cores lower their clock around bursts of 512-bit work (measured on
-    /// Sapphire Rapids). AMD's Zen 4 runs them on its 256-bit units at
-    /// full clock.
-    pub fn wide_vectors_throttle() -> bool {
-        Isa::ceiling() == Isa::Avx512 && intel()
-    }
-
     /// A line saying the instruction set is capped below the CPU's, when
     /// it is.
     pub fn cap_note() -> Option<String> {
@@ -171,18 +162,4 @@ impl Avx512 {
     pub fn detect() -> Option<Avx512> {
         (Isa::ceiling() >= Isa::Avx512).then_some(Avx512 { _detected: () })
     }
-}
-
-/// Whether the CPU is Intel's: CPUID leaf 0's vendor string.
-fn intel() -> bool {
-    #[cfg(target_arch = "x86_64")]
-    {
-        let leaf = std::arch::x86_64::__cpuid(0);
-        let vendor = [leaf.ebx, leaf.edx, leaf.ecx]
-            .map(u32::to_le_bytes)
-            .concat();
-        vendor == b"GenuineIntel"
-    }
-    #[cfg(not(target_arch = "x86_64"))]
-    false
 }
