@@ -11,8 +11,8 @@
 //!   `PathState` (`surface_points` in lanes, then `begin`, `light_at`,
 //!   `go_on`), every shadow ray answered unblocked;
 //! - **arrays**: the same operations in the same order, written as passes
-//!   over structure-of-arrays lists of the whole wave, eight paths at a
-//!   time on eight-float values ([`F8`]) in passes compiled for AVX2, the
+//!   over structure-of-arrays lists of the whole wave, sixteen paths at a
+//!   time on sixteen-float values ([`F16`]) in passes compiled for AVX2, the
 //!   generators in lists too; sine and cosine lane by lane from libm (the
 //!   renderer's bits) or as polynomials (not its bits).
 //!
@@ -40,11 +40,11 @@ use hybrid::bench::file;
 use hybrid::geom::ray::SHADOW_END;
 use hybrid::geom::sampling::Rng;
 use hybrid::geom::{gamma, Hit, Ray};
-use hybrid::render::f8::F8;
 use hybrid::render::integrator::{
     DirectEstimator, Integrator, PathSettings, PathState, Shading, ShadowTape,
 };
 use hybrid::render::lanes::surface_points;
+use hybrid::render::wide::{F16, LANES};
 use hybrid::scene::{collada, Light, Material, NormalMode, Scene, SurfacePoint, TEST_ULPS};
 use hybrid::{each3, map3};
 
@@ -189,7 +189,7 @@ fn main() -> ExitCode {
     ExitCode::SUCCESS
 }
 
-/// `F8::away` against the standard library's `next_up` and `next_down`
+/// `F16::away` against the standard library's `next_up` and `next_down`
 /// on the edge cases the rays may not reach (zeros, subnormals,
 /// infinities, NaN).
 fn away_is_next_up() -> Result<(), String> {
@@ -213,9 +213,10 @@ fn away_is_next_up() -> Result<(), String> {
         f32::NEG_INFINITY,
         -f32::MAX,
     ];
-    for x in [F8(edges), F8(edges.map(|x| -x)), F8(ordinary)] {
+    let lanes = |a: [f32; 8]| F16(std::array::from_fn(|l| a[l % 8]));
+    for x in [lanes(edges), lanes(edges.map(|x| -x)), lanes(ordinary)] {
         for o in [1.0, -1.0, 0.0] {
-            let got = x.away(F8::splat(o));
+            let got = x.away(F16::splat(o));
             for (g, x) in got.0.into_iter().zip(x.0) {
                 let want = match o {
                     o if o > 0.0 => x.next_up(),
@@ -423,19 +424,19 @@ fn next_u32(state: &mut [u64], inc: &[u64], out: &mut [u32]) {
     }
 }
 
-/// Three coordinates of eight paths from `lists` at path `i`.
+/// Three coordinates of sixteen paths from `lists` at path `i`.
 #[inline(always)]
-fn v3(lists: &[Vec<f32>; 3], i: usize) -> [F8; 3] {
-    each3!(|a| F8::load(&lists[a][i..]))
+fn v3(lists: &[Vec<f32>; 3], i: usize) -> [F16; 3] {
+    each3!(|a| F16::load(&lists[a][i..]))
 }
 
 #[inline(always)]
-fn dot(a: [F8; 3], b: [F8; 3]) -> F8 {
+fn dot(a: [F16; 3], b: [F16; 3]) -> F16 {
     a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 }
 
 #[inline(always)]
-fn cross(a: [F8; 3], b: [F8; 3]) -> [F8; 3] {
+fn cross(a: [F16; 3], b: [F16; 3]) -> [F16; 3] {
     [
         a[1] * b[2] - a[2] * b[1],
         a[2] * b[0] - a[0] * b[2],
@@ -446,10 +447,10 @@ fn cross(a: [F8; 3], b: [F8; 3]) -> [F8; 3] {
 /// `Ray::spawn`'s origin: the point moved past its error bound along the
 /// normal, to the side `dir` leaves on, then one ulp further away.
 #[inline(always)]
-fn spawn(p: [F8; 3], error: [F8; 3], ng: [F8; 3], dir: [F8; 3]) -> [F8; 3] {
-    let zero = F8::splat(0.0);
+fn spawn(p: [F16; 3], error: [F16; 3], ng: [F16; 3], dir: [F16; 3]) -> [F16; 3] {
+    let zero = F16::splat(0.0);
     let d = ng[0].abs() * error[0] + ng[1].abs() * error[1] + ng[2].abs() * error[2];
-    let d = F8::select(dot(dir, ng).lt(zero), -d, d);
+    let d = F16::select(dot(dir, ng).lt(zero), -d, d);
     let mut origin = [zero; 3];
     for k in 0..3 {
         let offset = ng[k] * d;
@@ -461,8 +462,8 @@ fn spawn(p: [F8; 3], error: [F8; 3], ng: [F8; 3], dir: [F8; 3]) -> [F8; 3] {
 /// Sine and cosine of `2 pi v` for v in [0, 1): the quarter turn taken
 /// exactly, then polynomials on [-pi/4, pi/4].
 #[inline(always)]
-fn sin_cos_turn(v: F8) -> (F8, F8) {
-    let c = F8::splat;
+fn sin_cos_turn(v: F16) -> (F16, F16) {
+    let c = F16::splat;
     let q = (v * c(4.0) + c(0.5)).floor();
     let x = (v * c(4.0) - q) * c(std::f32::consts::FRAC_PI_2);
     let x2 = x * x;
@@ -470,8 +471,8 @@ fn sin_cos_turn(v: F8) -> (F8, F8) {
     let co = c(1.0)
         + x2 * (c(-0.5) + x2 * (c(1.0 / 24.0) + x2 * (c(-1.0 / 720.0) + x2 * c(1.0 / 40320.0))));
     let (odd, high) = q.quadrant();
-    let (s, co) = (F8::select(odd, co, s), F8::select(odd, -s, co));
-    (F8::select(high, -s, s), F8::select(high, -co, co))
+    let (s, co) = (F16::select(odd, co, s), F16::select(odd, -s, co));
+    (F16::select(high, -s, s), F16::select(high, -co, co))
 }
 
 impl Arrays {
@@ -584,11 +585,11 @@ impl Arrays {
         for l in [&mut self.p, &mut self.error, &mut self.ng, &mut self.ns] {
             resize(l, n);
         }
-        let margin_ulps = F8::splat(gamma(TEST_ULPS));
-        let g9 = F8::splat(gamma(9));
-        let (two, third, zero) = (F8::splat(2.0), F8::splat(3.0), F8::splat(0.0));
-        for i in (0..n).step_by(8) {
-            let w = each3!(|k| F8::load(&self.w[k][i..]));
+        let margin_ulps = F16::splat(gamma(TEST_ULPS));
+        let g9 = F16::splat(gamma(9));
+        let (two, third, zero) = (F16::splat(2.0), F16::splat(3.0), F16::splat(0.0));
+        for i in (0..n).step_by(LANES) {
+            let w = each3!(|k| F16::load(&self.w[k][i..]));
             let c = each3!(|k| v3(&self.corner[k], i));
             let nm = each3!(|k| v3(&self.normal[k], i));
             let d = |x: usize, y: usize, a: usize| (c[x][a] - c[y][a]).abs();
@@ -605,15 +606,15 @@ impl Arrays {
             let len = dot(x, x).sqrt();
             let ng = map3!(x, |v| v / len);
             let sm = each3!(|a| nm[0][a] * w[0] + nm[1][a] * w[1] + nm[2][a] * w[2]);
-            let recip = F8::splat(1.0) / dot(sm, sm).sqrt();
+            let recip = F16::splat(1.0) / dot(sm, sm).sqrt();
             let unit = map3!(sm, |x| x * recip);
             let outward = dot(unit, ng).lt(zero);
             for a in 0..3 {
-                F8::select(steps, on[a] + inward[a] * step, on[a]).store(&mut self.p[a][i..]);
+                F16::select(steps, on[a] + inward[a] * step, on[a]).store(&mut self.p[a][i..]);
                 let e = (c[0][a] * w[0]).abs() + (c[1][a] * w[1]).abs() + (c[2][a] * w[2]).abs();
                 (g9 * e + margin).store(&mut self.error[a][i..]);
                 ng[a].store(&mut self.ng[a][i..]);
-                F8::select(outward, -unit[a], unit[a]).store(&mut self.ns[a][i..]);
+                F16::select(outward, -unit[a], unit[a]).store(&mut self.ns[a][i..]);
             }
         }
     }
@@ -627,11 +628,11 @@ impl Arrays {
         }
         self.lifted.clear();
         self.lifted.resize(n, 0.0);
-        let (zero, one) = (F8::splat(0.0), F8::splat(1.0));
-        for i in (0..n).step_by(8) {
+        let (zero, one) = (F16::splat(0.0), F16::splat(1.0));
+        for i in (0..n).step_by(LANES) {
             let wo = map3!(v3(&self.dir, i), |x| -x);
             let (ng0, ns0) = (v3(&self.ng, i), v3(&self.ns, i));
-            let back = F8::select(dot(wo, ng0).lt(zero), -one, one);
+            let back = F16::select(dot(wo, ng0).lt(zero), -one, one);
             let ng = map3!(ng0, |x| x * back);
             let ns = map3!(ns0, |x| x * back);
             // (A diffuse surface keeps the smooth normal's side: no turn to
@@ -641,10 +642,10 @@ impl Arrays {
             let fb = ns[0] * ns[1] * fa;
             let s = [one + sign * ns[0] * ns[0] * fa, sign * fb, -(sign * ns[0])];
             let t = [fb, sign + ns[1] * ns[1] * fa, -ns[1]];
-            let w = each3!(|k| F8::load(&self.w[k][i..]));
+            let w = each3!(|k| F16::load(&self.w[k][i..]));
             let nk = each3!(|k| v3(&self.normal[k], i));
             let interp = each3!(|a| nk[0][a] * w[0] + nk[1][a] * w[1] + nk[2][a] * w[2]);
-            let flip = F8::select(dot(interp, ng).lt(zero), -one, one);
+            let flip = F16::select(dot(interp, ng).lt(zero), -one, one);
             let p = v3(&self.p, i);
             let mut lift = [zero; 3];
             for k in 0..3 {
@@ -655,7 +656,7 @@ impl Arrays {
                     lift[a] = lift[a] - nn[a] * (below * w[k]);
                 }
             }
-            F8::select(dot(lift, ng).gt(zero), one, zero).store(&mut self.lifted[i..]);
+            F16::select(dot(lift, ng).gt(zero), one, zero).store(&mut self.lifted[i..]);
             for a in 0..3 {
                 ng[a].store(&mut self.ng[a][i..]);
                 ns[a].store(&mut self.ns[a][i..]);
@@ -698,19 +699,19 @@ impl Arrays {
         resize(&mut self.term, n);
         self.shadow_ok.clear();
         self.shadow_ok.resize(n, 0.0);
-        let splat3 = |v: Vec3| [F8::splat(v.x), F8::splat(v.y), F8::splat(v.z)];
+        let splat3 = |v: Vec3| [F16::splat(v.x), F16::splat(v.y), F16::splat(v.z)];
         let (o, eu, ev) = (
             splat3(light.origin),
             splat3(light.edge_u),
             splat3(light.edge_v),
         );
         let (ln, radiance) = (splat3(light.normal), splat3(light.radiance));
-        let area = F8::splat(light.area);
-        let g1 = F8::splat(gamma(1));
-        let (zero, one, inf) = (F8::splat(0.0), F8::splat(1.0), F8::splat(f32::INFINITY));
-        let pi = F8::splat(std::f32::consts::FRAC_1_PI);
-        for i in (0..n).step_by(8) {
-            let (u, v) = (F8::unit(&a[i..]), F8::unit(&b[i..]));
+        let area = F16::splat(light.area);
+        let g1 = F16::splat(gamma(1));
+        let (zero, one, inf) = (F16::splat(0.0), F16::splat(1.0), F16::splat(f32::INFINITY));
+        let pi = F16::splat(std::f32::consts::FRAC_1_PI);
+        for i in (0..n).step_by(LANES) {
+            let (u, v) = (F16::unit(&a[i..]), F16::unit(&b[i..]));
             let p = v3(&self.p, i);
             let to = each3!(|k| o[k] + eu[k] * u + ev[k] * v - p[k]);
             let d2 = dot(to, to);
@@ -721,8 +722,8 @@ impl Arrays {
             let ng = v3(&self.ng, i);
             let local_z = dot(wi, v3(&self.ns, i));
             let in_front = dot(wi, ng).gt(zero);
-            let lifted = F8::load(&self.lifted[i..]).gt(zero);
-            let emits = F8::load(&self.emits[i..]).gt(zero);
+            let lifted = F16::load(&self.lifted[i..]).gt(zero);
+            let emits = F16::load(&self.emits[i..]).gt(zero);
             let ok = d2
                 .ne(zero)
                 .and(cos_light.gt(zero))
@@ -738,14 +739,14 @@ impl Arrays {
             let contribution = map3!(radiance, |x| x / pdf);
             // The MIS weight against the BSDF's density, then the term.
             let (a2, b2) = (pdf * pdf, (local_z * pi) * (local_z * pi));
-            let weight = F8::select(in_front, a2 / (a2 + b2), one);
+            let weight = F16::select(in_front, a2 / (a2 + b2), one);
             let scale = local_z.abs() * weight / one;
             // From the lifted point where there is one.
             let error = v3(&self.error, i);
             let lift = v3(&self.lift, i);
-            let from = each3!(|k| F8::select(lifted, p[k] + lift[k], p[k]));
+            let from = each3!(|k| F16::select(lifted, p[k] + lift[k], p[k]));
             let from_error = each3!(|k| {
-                F8::select(
+                F16::select(
                     lifted,
                     error[k] + (p[k].abs() + lift[k].abs()) * g1,
                     error[k],
@@ -753,8 +754,8 @@ impl Arrays {
             });
             let reach = each3!(|k| p[k] + wi[k] * distance - from[k]);
             let length = dot(reach, reach).sqrt();
-            let dir = each3!(|k| F8::select(lifted, reach[k] / length, wi[k]));
-            let far = F8::select(lifted, length, distance);
+            let dir = each3!(|k| F16::select(lifted, reach[k] / length, wi[k]));
+            let far = F16::select(lifted, length, distance);
             let origin = spawn(from, from_error, ng, dir);
             for k in 0..3 {
                 origin[k].store(&mut self.shadow[k][i..]);
@@ -762,8 +763,8 @@ impl Arrays {
                 (f[k] * contribution[k] * scale).store(&mut self.term[k][i..]);
             }
             zero.store(&mut self.shadow[6][i..]);
-            (far * F8::splat(SHADOW_END)).store(&mut self.shadow[7][i..]);
-            F8::select(ok, one, zero).store(&mut self.shadow_ok[i..]);
+            (far * F16::splat(SHADOW_END)).store(&mut self.shadow[7][i..]);
+            F16::select(ok, one, zero).store(&mut self.shadow_ok[i..]);
         }
     }
 
@@ -777,30 +778,30 @@ impl Arrays {
         resize(&mut self.next, n);
         self.next_ok.clear();
         self.next_ok.resize(n, 0.0);
-        let (zero, one) = (F8::splat(0.0), F8::splat(1.0));
-        for i in (0..n).step_by(8) {
-            let (u, v) = (F8::unit(&a[i..]), F8::unit(&b[i..]));
+        let (zero, one) = (F16::splat(0.0), F16::splat(1.0));
+        for i in (0..n).step_by(LANES) {
+            let (u, v) = (F16::unit(&a[i..]), F16::unit(&b[i..]));
             let r = u.sqrt();
             let (sin, cos) = if POLYNOMIALS {
                 sin_cos_turn(v)
             } else {
-                let phi = F8::splat(2.0 * std::f32::consts::PI) * v;
+                let phi = F16::splat(2.0 * std::f32::consts::PI) * v;
                 (phi.each(f32::sin), phi.each(f32::cos))
             };
             let local = [r * cos, r * sin, (one - u).max(zero).sqrt()];
             let (s, t, ns) = (v3(&self.s, i), v3(&self.t, i), v3(&self.ns, i));
             let wi = each3!(|k| s[k] * local[0] + t[k] * local[1] + ns[k] * local[2]);
             let ng = v3(&self.ng, i);
-            let emits = F8::load(&self.emits[i..]).gt(zero);
+            let emits = F16::load(&self.emits[i..]).gt(zero);
             let ok = local[2].gt(zero).and(dot(wi, ng).gt(zero)).and_not(emits);
-            F8::select(ok, one, zero).store(&mut self.next_ok[i..]);
+            F16::select(ok, one, zero).store(&mut self.next_ok[i..]);
             let origin = spawn(v3(&self.p, i), v3(&self.error, i), ng, wi);
             for k in 0..3 {
                 origin[k].store(&mut self.next[k][i..]);
                 wi[k].store(&mut self.next[3 + k][i..]);
             }
             zero.store(&mut self.next[6][i..]);
-            F8::splat(f32::INFINITY).store(&mut self.next[7][i..]);
+            F16::splat(f32::INFINITY).store(&mut self.next[7][i..]);
         }
     }
 }

@@ -217,7 +217,7 @@ pub const COS_POLY: [f32; 3] = [2.443_315_7e-5, -1.388_731_6e-3, 4.166_664_6e-2]
 /// every `k / 2^24`). The nearest quarter turn is taken off exactly (`4
 /// turns` and the difference are exact), the rest is at most an eighth
 /// of a turn, where the polynomials hold; separate products and sums, no
-/// fused multiply-add, so that [`crate::render::f8::F8::sin_cos_turns`]
+/// fused multiply-add, so that [`crate::render::wide::F16::sin_cos_turns`]
 /// gives each lane these bits. Inline, where libm's `sincosf` is a call:
 /// in the wave's passes eight lanes at a time (CBempty's stepping 11%
 /// faster than with libm's lane by lane, whose calls perf put at 4% of
@@ -255,9 +255,9 @@ mod tests {
     /// the lanes' function gives the scalar one's bits.
     #[test]
     fn sines_and_cosines_of_turns_are_close_and_the_lanes_agree() {
-        use crate::render::f8::F8;
+        use crate::render::wide::{F16, LANES};
         let mut worst = 0.0f64;
-        let mut lanes = [0.0f32; 8];
+        let mut lanes = [0.0f32; LANES];
         for k in 0..=(1u32 << 24) {
             let turns = k as f32 / (1u32 << 24) as f32;
             let (sin, cos) = sin_cos_turns(turns);
@@ -265,9 +265,9 @@ mod tests {
             worst = worst
                 .max((f64::from(sin) - angle.sin()).abs())
                 .max((f64::from(cos) - angle.cos()).abs());
-            lanes[k as usize % 8] = turns;
-            if k % 8 == 7 || k == 1 << 24 {
-                let (s8, c8) = F8(lanes).sin_cos_turns();
+            lanes[k as usize % LANES] = turns;
+            if k as usize % LANES == LANES - 1 || k == 1 << 24 {
+                let (s8, c8) = F16(lanes).sin_cos_turns();
                 for (l, &t) in lanes.iter().enumerate() {
                     let (s, c) = sin_cos_turns(t);
                     assert_eq!(

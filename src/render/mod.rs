@@ -12,7 +12,6 @@
 
 pub mod camera;
 pub mod camera_file;
-pub mod f8;
 pub mod film;
 pub mod integrator;
 pub mod lanes;
@@ -21,6 +20,7 @@ pub mod material;
 pub mod mitsuba;
 pub mod part;
 pub mod wave;
+pub mod wide;
 
 use std::sync::Mutex;
 use std::time::Instant;

@@ -665,13 +665,26 @@ fn simd_intrinsics_are_inlined_into_their_kernels() {
         "NativeBvh::group_avx2",
         "NativeBvh::group16",
         "traverse::avx2::",
+        // The wave's passes in lanes, each compiled for AVX2 and AVX-512:
+        // a closure or lane operation left out of line there runs without
+        // the pass's vectors.
+        "_pass::avx2",
+        "_pass::avx512",
     ];
-    let builders = ["try_map", "try_from_fn", "core_arch::x86"];
+    let builders = [
+        "try_map",
+        "try_from_fn",
+        "core_arch::x86",
+        "{{closure}}",
+        "wide::F16",
+    ];
     let mut kernel = None;
     let mut kernels_seen = 0;
+    let mut passes_seen = 0;
     for line in run("objdump", &["-d", "--no-show-raw-insn", "-C"]).lines() {
         if let Some(name) = line.strip_suffix(">:").and_then(|l| l.split_once(" <")) {
             let name = name.1.to_string();
+            passes_seen += usize::from(name.contains("_pass::avx"));
             kernel = kernels.iter().any(|k| name.contains(k)).then_some(name);
             kernels_seen += usize::from(kernel.is_some());
         } else if let Some(name) = &kernel {
@@ -683,6 +696,10 @@ fn simd_intrinsics_are_inlined_into_their_kernels() {
     assert!(
         kernels_seen >= 3,
         "found {kernels_seen} kernels in {binary}"
+    );
+    assert!(
+        passes_seen >= 14,
+        "found {passes_seen} of the seven passes' two versions in {binary}"
     );
     assert!(
         wrong.is_empty(),

@@ -1,5 +1,5 @@
 //! A wave's paths with their state in lists, one per value (structure of
-//! arrays), stepped by passes that work eight paths at a time: the design
+//! arrays), stepped by passes that work sixteen paths at a time: the design
 //! `examples/soa_step.rs` measured at 2.9-3.05x the `PathState` step on
 //! the same hits, the same rays to the bit (docs/experiments.md, stop
 //! 51). The paths still going sit in slots, in the order of the paths,
@@ -14,7 +14,7 @@
 //! direct light summed in lanes as [`super::ShadowTape::sum`] sums it;
 //! Russian roulette, the BSDF's numbers, its direction and ray in lanes,
 //! as [`Integrator::leave`] takes them. The generators step in lanes too
-//! ([`Rng8`]). Every operation is the scalar code's, in its order, so the
+//! ([`Rng16`]). Every operation is the scalar code's, in its order, so the
 //! image has the bits of the paths walked alone (tested).
 //!
 //! The lanes take Lambertian vertices of smoothly shaded scenes lit by
@@ -34,15 +34,15 @@ use crate::accel::native::cpu::Avx2;
 use crate::accel::{Accel, Coherence, TraceCounters};
 use crate::geom::sampling::{self, Rng};
 use crate::geom::{gamma, Hit, Ray};
-use crate::render::f8::F8;
 use crate::render::light::Facing;
 use crate::render::light::LightSet;
 use crate::render::wave::{held, WaveTimes};
+use crate::render::wide::{lane_pass, Vectors, F16, LANES};
 use crate::scene::{AreaLight, Light, Material, NormalMode, Scene};
 use crate::{each3, map3};
 
 /// Lanes of a pass.
-const L: usize = 8;
+const L: usize = LANES;
 
 /// Light samples a vertex takes at most here (lights times `-l`).
 const MOST_SAMPLES: usize = 8;
@@ -60,7 +60,7 @@ const MOST_SAMPLES: usize = 8;
 pub struct ArrayPlan<'l> {
     lanes: Option<Lanes<'l>>,
     s: PathSettings,
-    avx2: Avx2,
+    vectors: Vectors,
     /// Whether the sky gives light (an ambient light or a map): where it
     /// does not, a ray that escapes adds nothing to its path.
     sky: bool,
@@ -115,7 +115,7 @@ fn plan<'l>(
     Some(ArrayPlan {
         lanes,
         s,
-        avx2,
+        vectors: Vectors::widest(avx2),
         sky: true,
     })
 }
@@ -185,9 +185,8 @@ type Lists = [Vec<f32>; 3];
 /// The paths still going sit in slots, in the order of the paths: each
 /// bounce, the ones that go on from their hits move to the front, their
 /// order kept (a stable compaction, in place). A slot's state is in
-/// lists indexed by the slot, so the passes
-/// read and write it eight slots at a time, with no index between a
-/// vertex and its path.
+/// lists indexed by the slot, so the passes read and write it sixteen
+/// slots at a time, with no index between a vertex and its path.
 #[derive(Default)]
 pub struct ArrayWave {
     /// Each path's radiance so far (index: the path).
@@ -223,12 +222,12 @@ pub struct ArrayWave {
     lanes: Vec<f32>,
     lit: Vec<f32>,
     /// The slots at a vertex this bounce, and that count padded to whole
-    /// groups of eight: the extent of every pass (the lists may be
+    /// groups of sixteen: the extent of every pass (the lists may be
     /// longer).
     count: usize,
     padded: usize,
     /// Each slot's vertex: hit data gathered, padded to whole groups of
-    /// eight with the last.
+    /// sixteen with the last.
     albedo: Lists,
     dir: Lists,
     w: Lists,
@@ -324,22 +323,27 @@ fn sized(lists: &mut [Vec<f32>], n: usize) {
     }
 }
 
-/// Three coordinates of eight vertices from `lists` at vertex `i`.
+/// Three coordinates of sixteen vertices from `lists` at vertex `i`.
 #[inline(always)]
-fn v3(lists: &Lists, i: usize) -> [F8; 3] {
-    each3!(|a| F8::load(&lists[a][i..]))
+fn v3(lists: &Lists, i: usize) -> [F16; 3] {
+    each3!(|a| F16::load(&lists[a][i..]))
 }
 
 #[inline(always)]
-fn store3(v: [F8; 3], lists: &mut Lists, i: usize) {
+fn store3(v: [F16; 3], lists: &mut Lists, i: usize) {
     for (a, v) in v.into_iter().enumerate() {
         v.store(&mut lists[a][i..]);
     }
 }
 
 #[inline(always)]
-fn dot(a: [F8; 3], b: [F8; 3]) -> F8 {
+fn dot(a: [F16; 3], b: [F16; 3]) -> F16 {
     a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+#[inline(always)]
+fn splat3(v: Vec3) -> [F16; 3] {
+    [F16::splat(v.x), F16::splat(v.y), F16::splat(v.z)]
 }
 
 #[inline(always)]
@@ -357,10 +361,10 @@ fn set_lane(lists: &mut Lists, i: usize, v: Vec3) {
 /// `Ray::spawn`'s origin: the point moved past its error bound along the
 /// normal, to the side `dir` leaves on, then one ulp further away.
 #[inline(always)]
-fn spawn(p: [F8; 3], error: [F8; 3], ng: [F8; 3], dir: [F8; 3]) -> [F8; 3] {
-    let zero = F8::splat(0.0);
+fn spawn(p: [F16; 3], error: [F16; 3], ng: [F16; 3], dir: [F16; 3]) -> [F16; 3] {
+    let zero = F16::splat(0.0);
     let d = ng[0].abs() * error[0] + ng[1].abs() * error[1] + ng[2].abs() * error[2];
-    let d = F8::select(dot(dir, ng).lt(zero), -d, d);
+    let d = F16::select(dot(dir, ng).lt(zero), -d, d);
     let mut origin = [zero; 3];
     for k in 0..3 {
         let offset = ng[k] * d;
@@ -691,7 +695,7 @@ impl ArrayWave {
                 }
             }
         }
-        surface_pass(plan.avx2, self);
+        surface_pass(plan.vectors, self);
         // Spheres, and lanes whose normals left the plain case: the
         // scalar function.
         for v in 0..count {
@@ -788,7 +792,7 @@ impl ArrayWave {
             sized(lists, padded);
         }
         sized(std::slice::from_mut(&mut self.lifted), padded);
-        vertex_pass(plan.avx2, self);
+        vertex_pass(plan.vectors, self);
         // `Scene::shadow_lift`: none on a sphere.
         for v in 0..padded {
             if self.sphere[v] {
@@ -818,16 +822,16 @@ impl ArrayWave {
         // specular (none here is), used or not. Every slot splits: a
         // path that went on alone gets its generator back when leaving.
         self.light_rng.sized(padded);
-        split_pass(plan.avx2, self);
+        split_pass(plan.vectors, self);
         // An area light's two numbers per vertex, in `draws`.
         sized(&mut self.draws, padded);
         let mut slot = 0;
         for (source, n) in plan.groups() {
             for _ in 0..n {
                 if let Source::Area(_) | Source::Ambient { .. } = source {
-                    light_draws_pass(plan.avx2, self);
+                    light_draws_pass(plan.vectors, self);
                 }
-                light_pass(plan, self, source, slot);
+                light_pass(plan.vectors, &plan.s, self, source, slot);
                 slot += 1;
             }
         }
@@ -866,7 +870,7 @@ impl ArrayWave {
             self.open[j as usize][v as usize] = if blocked { 0.0 } else { 1.0 };
         }
         sized(&mut self.direct, self.padded);
-        sum_pass(plan, self);
+        sum_pass(plan.vectors, plan, self);
         let (lit, path) = (&self.lit[..self.count], &self.path[..]);
         for (v, _) in lit.iter().enumerate().filter(|(_, &l)| l != 0.0) {
             self.total[path[v] as usize] += lane(&self.direct, v);
@@ -882,7 +886,7 @@ impl ArrayWave {
         sized(&mut self.draws, padded);
         sized(std::slice::from_mut(&mut self.going), padded);
         sized(&mut self.next, padded);
-        leave_pass(plan, self);
+        leave_pass(plan.vectors, &plan.s, self);
         // Where each path left, for the next vertex: this one's lists,
         // whole (a slot that does not go on is not read again, and the
         // passes write these lists whole before they read them).
@@ -932,21 +936,21 @@ impl ArrayWave {
     }
 }
 
-/// Eight generators side by side: [`Rng`] lane by lane, its bits.
+/// Sixteen generators side by side: [`Rng`] lane by lane, its bits.
 #[derive(Clone, Copy)]
-struct Rng8 {
+struct Rng16 {
     state: [u64; L],
     inc: [u64; L],
 }
 
-// Lane loops index their arrays, as `F8`'s do.
+// Lane loops index their arrays, as `F16`'s do.
 #[allow(clippy::needless_range_loop)]
-impl Rng8 {
+impl Rng16 {
     #[inline(always)]
-    fn load(r: &Rngs, i: usize) -> Rng8 {
-        Rng8 {
-            state: r.state[i..i + L].try_into().expect("eight states"),
-            inc: r.inc[i..i + L].try_into().expect("eight increments"),
+    fn load(r: &Rngs, i: usize) -> Rng16 {
+        Rng16 {
+            state: r.state[i..i + L].try_into().expect("sixteen states"),
+            inc: r.inc[i..i + L].try_into().expect("sixteen increments"),
         }
     }
 
@@ -959,7 +963,7 @@ impl Rng8 {
     /// `Rng::next_u32` in the lanes of `mask`; the others keep their
     /// state (their outputs are not used).
     #[inline(always)]
-    fn next_u32(&mut self, mask: F8) -> [u32; L] {
+    fn next_u32(&mut self, mask: F16) -> [u32; L] {
         let mut out = [0; L];
         for l in 0..L {
             let old = self.state[l];
@@ -974,16 +978,16 @@ impl Rng8 {
 
     /// `Rng::next_f32` in the lanes of `mask`.
     #[inline(always)]
-    fn next_f32(&mut self, mask: F8) -> F8 {
-        F8::unit(&self.next_u32(mask))
+    fn next_f32(&mut self, mask: F16) -> F16 {
+        F16::unit(&self.next_u32(mask))
     }
 
     /// `Rng::split`, every lane.
     #[inline(always)]
-    fn split(&mut self) -> Rng8 {
-        let all = F8::splat(f32::from_bits(u32::MAX));
+    fn split(&mut self) -> Rng16 {
+        let all = F16::splat(f32::from_bits(u32::MAX));
         let (hi, lo) = (self.next_u32(all), self.next_u32(all));
-        let mut child = Rng8 {
+        let mut child = Rng16 {
             state: [0; L],
             inc: [0; L],
         };
@@ -996,34 +1000,25 @@ impl Rng8 {
     }
 }
 
-fn sum_pass(plan: &ArrayPlan, wave: &mut ArrayWave) {
-    // SAFETY: `plan.avx2` proves the CPU runs AVX2, the pass's one
-    // requirement.
-    unsafe { sum_avx2(plan, wave) }
-}
-
 /// Each vertex's direct light times its throughput into `direct`, as
 /// [`super::ShadowTape::sum`] sums it: each light's samples (zero where
-/// blocked or without a ray) averaged, the means summed; eight vertices
+/// blocked or without a ray) averaged, the means summed; sixteen vertices
 /// at a time.
-///
-/// # Safety
-/// The CPU must run AVX2.
-#[target_feature(enable = "avx2")]
-unsafe fn sum_avx2(plan: &ArrayPlan, wave: &mut ArrayWave) {
-    let zero = F8::splat(0.0);
+#[inline(always)]
+fn sum_lanes(plan: &ArrayPlan, wave: &mut ArrayWave) {
+    let zero = F16::splat(0.0);
     for i in (0..wave.padded).step_by(L) {
         let mut sum = [zero; 3];
         let mut slot = 0;
         for (_, n) in plan.groups() {
             let mut group = [zero; 3];
             for _ in 0..n {
-                let open = F8::load(&wave.open[slot][i..]).gt(zero);
+                let open = F16::load(&wave.open[slot][i..]).gt(zero);
                 let term = v3(&wave.term[slot], i);
-                group = each3!(|k| group[k] + F8::select(open, term[k], zero));
+                group = each3!(|k| group[k] + F16::select(open, term[k], zero));
                 slot += 1;
             }
-            let n = F8::splat(n as f32);
+            let n = F16::splat(n as f32);
             sum = each3!(|k| sum[k] + group[k] / n);
         }
         let beta = v3(&wave.beta, i);
@@ -1031,87 +1026,66 @@ unsafe fn sum_avx2(plan: &ArrayPlan, wave: &mut ArrayWave) {
     }
 }
 
-/// The generators' passes behind their proof of AVX2.
-fn split_pass(_avx2: Avx2, wave: &mut ArrayWave) {
-    // SAFETY: `Avx2` exists only where the CPU runs AVX2
-    // (`Avx2::detect`), the pass's one requirement.
-    unsafe { split_avx2(wave) }
-}
+lane_pass!(sum_pass = sum_lanes(plan: &ArrayPlan, wave: &mut ArrayWave));
 
 /// Each slot's light stream split off its generator (`Rng::split`),
-/// eight slots at a time.
-///
-/// # Safety
-/// The CPU must run AVX2.
-#[target_feature(enable = "avx2")]
-unsafe fn split_avx2(wave: &mut ArrayWave) {
+/// sixteen slots at a time.
+#[inline(always)]
+fn split_lanes(wave: &mut ArrayWave) {
     for i in (0..wave.padded).step_by(L) {
-        let mut rng = Rng8::load(&wave.rng, i);
+        let mut rng = Rng16::load(&wave.rng, i);
         let light = rng.split();
         rng.store(&mut wave.rng, i);
         light.store(&mut wave.light_rng, i);
     }
 }
 
-fn light_draws_pass(_avx2: Avx2, wave: &mut ArrayWave) {
-    // SAFETY: as `split_pass`.
-    unsafe { light_draws_avx2(wave) }
-}
+lane_pass!(split_pass = split_lanes(wave: &mut ArrayWave));
 
 /// Two numbers from each slot's light stream into `draws[0..2]`
-/// (`Rng::next_2d`), eight slots at a time.
-///
-/// # Safety
-/// The CPU must run AVX2.
-#[target_feature(enable = "avx2")]
-unsafe fn light_draws_avx2(wave: &mut ArrayWave) {
-    let all = F8::splat(f32::from_bits(u32::MAX));
+/// (`Rng::next_2d`), sixteen slots at a time.
+#[inline(always)]
+fn light_draws_lanes(wave: &mut ArrayWave) {
+    let all = F16::splat(f32::from_bits(u32::MAX));
     for i in (0..wave.padded).step_by(L) {
-        let mut light = Rng8::load(&wave.light_rng, i);
+        let mut light = Rng16::load(&wave.light_rng, i);
         light.next_f32(all).store(&mut wave.draws[0][i..]);
         light.next_f32(all).store(&mut wave.draws[1][i..]);
         light.store(&mut wave.light_rng, i);
     }
 }
 
-fn leave_pass(plan: &ArrayPlan, wave: &mut ArrayWave) {
-    // SAFETY: `plan.avx2` proves the CPU runs AVX2, the pass's one
-    // requirement.
-    unsafe { leave_avx2(&plan.s, wave) }
-}
+lane_pass!(light_draws_pass = light_draws_lanes(wave: &mut ArrayWave));
 
 /// Each vertex's path leaves (`Integrator::leave` at a Lambertian
-/// vertex), eight slots at a time: Russian roulette from the second
+/// vertex), sixteen slots at a time: Russian roulette from the second
 /// vertex on, the BSDF's two numbers, a cosine-weighted direction
 /// (`material::sample`) with its density in `draws[2]`, and its ray
 /// (`Ray::spawn`) in `next`; the throughput times the albedo, and
 /// `going` for the paths that go on with a throughput neither zero nor
 /// infinite. The slots of paths that went on alone compute values that
 /// are replaced.
-///
-/// # Safety
-/// The CPU must run AVX2.
-#[target_feature(enable = "avx2")]
-unsafe fn leave_avx2(s: &PathSettings, wave: &mut ArrayWave) {
-    let (zero, one, inf) = (F8::splat(0.0), F8::splat(1.0), F8::splat(f32::INFINITY));
-    let frac_1_pi = F8::splat(std::f32::consts::FRAC_1_PI);
+#[inline(always)]
+fn leave_lanes(s: &PathSettings, wave: &mut ArrayWave) {
+    let (zero, one, inf) = (F16::splat(0.0), F16::splat(1.0), F16::splat(f32::INFINITY));
+    let frac_1_pi = F16::splat(std::f32::consts::FRAC_1_PI);
     let (roulette, p) = match s.russian_roulette {
-        Some(p) => (true, F8::splat(p)),
+        Some(p) => (true, F16::splat(p)),
         None => (false, one),
     };
     for i in (0..wave.padded).step_by(L) {
-        let lanes = F8::load(&wave.lanes[i..]).gt(zero);
-        let depth: [u32; L] = wave.depth[i..i + L].try_into().expect("eight depths");
+        let lanes = F16::load(&wave.lanes[i..]).gt(zero);
+        let depth: [u32; L] = wave.depth[i..i + L].try_into().expect("sixteen depths");
         // All ones where a lane takes Russian roulette.
         let rolled =
-            F8(depth.map(|d| f32::from_bits(0u32.wrapping_sub(u32::from(roulette && d >= 1)))));
+            F16(depth.map(|d| f32::from_bits(0u32.wrapping_sub(u32::from(roulette && d >= 1)))));
         let rolled = rolled.and(lanes);
-        let mut rng = Rng8::load(&wave.rng, i);
+        let mut rng = Rng16::load(&wave.rng, i);
         let u = rng.next_f32(rolled);
         let survives = u.lt(p);
         let going = lanes.and_not(rolled.and_not(survives));
         let mut beta = v3(&wave.beta, i);
-        beta = map3!(beta, |x| F8::select(rolled.and(survives), x / p, x));
+        beta = map3!(beta, |x| F16::select(rolled.and(survives), x / p, x));
         // `material::sample`'s two numbers (a Lambertian surface).
         let (u0, u1) = (rng.next_f32(going), rng.next_f32(going));
         rng.store(&mut wave.rng, i);
@@ -1123,7 +1097,7 @@ unsafe fn leave_avx2(s: &PathSettings, wave: &mut ArrayWave) {
         let going = going
             .and_not(local[2].le(zero))
             .and_not(dot(wi, ng).le(zero));
-        let beta = each3!(|k| beta[k] * F8::load(&wave.albedo[k][i..]));
+        let beta = each3!(|k| beta[k] * F16::load(&wave.albedo[k][i..]));
         let black = beta[0].ne(zero).or(beta[1].ne(zero)).or(beta[2].ne(zero));
         let finite = beta[0]
             .abs()
@@ -1131,7 +1105,7 @@ unsafe fn leave_avx2(s: &PathSettings, wave: &mut ArrayWave) {
             .and(beta[1].abs().lt(inf))
             .and(beta[2].abs().lt(inf));
         let going = going.and(black).and(finite);
-        F8::select(going, one, zero).store(&mut wave.going[i..]);
+        F16::select(going, one, zero).store(&mut wave.going[i..]);
         store3(beta, &mut wave.beta, i);
         (local[2] * frac_1_pi).store(&mut wave.draws[2][i..]);
         let origin = spawn(v3(&wave.p, i), v3(&wave.error, i), ng, wi);
@@ -1143,44 +1117,36 @@ unsafe fn leave_avx2(s: &PathSettings, wave: &mut ArrayWave) {
     }
 }
 
+lane_pass!(leave_pass = leave_lanes(s: &PathSettings, wave: &mut ArrayWave));
+
 /// [`crate::geom::sampling::cosine_hemisphere`] lane by lane, its bits.
 #[inline(always)]
-fn cosine_hemisphere8(u: F8, v: F8) -> [F8; 3] {
+fn cosine_hemisphere8(u: F16, v: F16) -> [F16; 3] {
     let r = u.sqrt();
     let (sin, cos) = v.sin_cos_turns();
     [
         r * cos,
         r * sin,
-        (F8::splat(1.0) - u).max(F8::splat(0.0)).sqrt(),
+        (F16::splat(1.0) - u).max(F16::splat(0.0)).sqrt(),
     ]
-}
-
-/// The surface pass behind its proof of AVX2.
-fn surface_pass(_avx2: Avx2, wave: &mut ArrayWave) {
-    // SAFETY: `Avx2` exists only where the CPU runs AVX2
-    // (`Avx2::detect`), the pass's one requirement.
-    unsafe { surface_avx2(wave) }
 }
 
 /// Each vertex's surface point (`Scene::surface_point` of a smoothly
 /// shaded triangle, in its operations and order, as
-/// `render::lanes::surface_points`), eight vertices at a time; `plain`
+/// `render::lanes::surface_points`), sixteen vertices at a time; `plain`
 /// marks the lanes whose normals took the plain case (the others are the
 /// scalar function's to answer).
-///
-/// # Safety
-/// The CPU must run AVX2.
-#[target_feature(enable = "avx2")]
-unsafe fn surface_avx2(wave: &mut ArrayWave) {
-    let margin_ulps = F8::splat(gamma(crate::scene::TEST_ULPS));
-    let g9 = F8::splat(gamma(9));
+#[inline(always)]
+fn surface_lanes(wave: &mut ArrayWave) {
+    let margin_ulps = F16::splat(gamma(crate::scene::TEST_ULPS));
+    let g9 = F16::splat(gamma(9));
     let (zero, one, two, three) = (
-        F8::splat(0.0),
-        F8::splat(1.0),
-        F8::splat(2.0),
-        F8::splat(3.0),
+        F16::splat(0.0),
+        F16::splat(1.0),
+        F16::splat(2.0),
+        F16::splat(3.0),
     );
-    let (tiny, inf) = (F8::splat(f32::MIN_POSITIVE), F8::splat(f32::INFINITY));
+    let (tiny, inf) = (F16::splat(f32::MIN_POSITIVE), F16::splat(f32::INFINITY));
     for i in (0..wave.padded).step_by(L) {
         let w = v3(&wave.w, i);
         let c = each3!(|k| v3(&wave.corner[k], i));
@@ -1213,40 +1179,32 @@ unsafe fn surface_avx2(wave: &mut ArrayWave) {
             .and(squared.lt(inf))
             .and(recip.lt(inf))
             .and(recip.gt(zero));
-        F8::select(plain, one, zero).store(&mut wave.plain[i..]);
+        F16::select(plain, one, zero).store(&mut wave.plain[i..]);
         for a in 0..3 {
-            F8::select(steps, on[a] + inward[a] * step, on[a]).store(&mut wave.p[a][i..]);
+            F16::select(steps, on[a] + inward[a] * step, on[a]).store(&mut wave.p[a][i..]);
             let e = (c[0][a] * w[0]).abs() + (c[1][a] * w[1]).abs() + (c[2][a] * w[2]).abs();
             (g9 * e + margin).store(&mut wave.error[a][i..]);
             ng[a].store(&mut wave.ng[a][i..]);
-            F8::select(outward, -unit[a], unit[a]).store(&mut wave.ns[a][i..]);
+            F16::select(outward, -unit[a], unit[a]).store(&mut wave.ns[a][i..]);
         }
     }
 }
 
-/// The vertex pass behind its proof of AVX2.
-fn vertex_pass(_avx2: Avx2, wave: &mut ArrayWave) {
-    // SAFETY: `Avx2` exists only where the CPU runs AVX2
-    // (`Avx2::detect`), the pass's one requirement.
-    unsafe { vertex_avx2(wave) }
-}
+lane_pass!(surface_pass = surface_lanes(wave: &mut ArrayWave));
 
 /// Facing (opaque surfaces are two-sided: the normals turned towards
 /// `wo`; a diffuse surface keeps the smooth normal's side), the shading
 /// frame (`Frame::new`) and the terminator lift (`Scene::shadow_lift`,
-/// `terminator_lift`), eight vertices at a time.
-///
-/// # Safety
-/// The CPU must run AVX2.
-#[target_feature(enable = "avx2")]
-unsafe fn vertex_avx2(wave: &mut ArrayWave) {
-    let (zero, one) = (F8::splat(0.0), F8::splat(1.0));
+/// `terminator_lift`), sixteen vertices at a time.
+#[inline(always)]
+fn vertex_lanes(wave: &mut ArrayWave) {
+    let (zero, one) = (F16::splat(0.0), F16::splat(1.0));
     for i in (0..wave.padded).step_by(L) {
         let wo = map3!(v3(&wave.dir, i), |x| -x);
         let (ng0, ns0) = (v3(&wave.ng, i), v3(&wave.ns, i));
         let back = dot(wo, ng0).lt(zero);
-        let ng = map3!(ng0, |x| F8::select(back, -x, x));
-        let ns = map3!(ns0, |x| F8::select(back, -x, x));
+        let ng = map3!(ng0, |x| F16::select(back, -x, x));
+        let ns = map3!(ns0, |x| F16::select(back, -x, x));
         let sign = one.copysign(ns[2]);
         let fa = -one / (sign + ns[2]);
         let fb = ns[0] * ns[1] * fa;
@@ -1259,14 +1217,14 @@ unsafe fn vertex_avx2(wave: &mut ArrayWave) {
         let p = v3(&wave.p, i);
         let mut lift = [zero; 3];
         for k in 0..3 {
-            let nn = map3!(nk[k], |x| F8::select(flip, -x, x));
+            let nn = map3!(nk[k], |x| F16::select(flip, -x, x));
             let c = v3(&wave.corner[k], i);
             let below = dot(each3!(|a| p[a] - c[a]), nn).min(zero);
             for a in 0..3 {
                 lift[a] = lift[a] - nn[a] * (below * w[k]);
             }
         }
-        F8::select(dot(lift, ng).gt(zero), one, zero).store(&mut wave.lifted[i..]);
+        F16::select(dot(lift, ng).gt(zero), one, zero).store(&mut wave.lifted[i..]);
         store3(ng, &mut wave.ng, i);
         store3(ns, &mut wave.ns, i);
         store3(s, &mut wave.s, i);
@@ -1275,41 +1233,35 @@ unsafe fn vertex_avx2(wave: &mut ArrayWave) {
     }
 }
 
-/// The light pass behind its proof of AVX2.
-fn light_pass(plan: &ArrayPlan, wave: &mut ArrayWave, source: Source, slot: usize) {
-    // SAFETY: `plan.avx2` proves the CPU runs AVX2, the pass's one
-    // requirement.
-    unsafe { light_avx2(&plan.s, wave, source, slot) }
-}
+lane_pass!(vertex_pass = vertex_lanes(wave: &mut ArrayWave));
 
 /// One sample of `source` (at `draws[0..2]` of the unit square for an
 /// area light) from each vertex: its term (MIS-weighted for an area light) and
-/// shadow ray (`sample_li`, `Integrator::unoccluded`), eight vertices at a
+/// shadow ray (`sample_li`, `Integrator::unoccluded`), sixteen vertices at a
 /// time.
-///
-/// # Safety
-/// The CPU must run AVX2.
-#[target_feature(enable = "avx2")]
-unsafe fn light_avx2(s: &PathSettings, wave: &mut ArrayWave, source: Source, slot: usize) {
-    let splat3 = |v: Vec3| [F8::splat(v.x), F8::splat(v.y), F8::splat(v.z)];
-    let g1 = F8::splat(gamma(1));
-    let (zero, one, inf) = (F8::splat(0.0), F8::splat(1.0), F8::splat(f32::INFINITY));
+#[inline(always)]
+fn light_lanes(s: &PathSettings, wave: &mut ArrayWave, source: Source, slot: usize) {
+    let g1 = F16::splat(gamma(1));
+    let (zero, one, inf) = (F16::splat(0.0), F16::splat(1.0), F16::splat(f32::INFINITY));
     let yes = zero.le(zero);
-    let frac_1_pi = F8::splat(std::f32::consts::FRAC_1_PI);
-    let end = F8::splat(crate::geom::ray::SHADOW_END);
+    let frac_1_pi = F16::splat(std::f32::consts::FRAC_1_PI);
+    let end = F16::splat(crate::geom::ray::SHADOW_END);
     // MIS's weight counts the samples a group takes: `samples * pick`.
     let mis = matches!(source, Source::Area(_) | Source::Ambient { .. })
         && s.estimator == DirectEstimator::Mis;
-    let samples = mis.then(|| F8::splat(s.light_samples.max(1) as f32 * 1.0));
+    let samples = mis.then(|| F16::splat(s.light_samples.max(1) as f32 * 1.0));
     for i in (0..wave.padded).step_by(L) {
         let p = v3(&wave.p, i);
         let (ng, ns) = (v3(&wave.ng, i), v3(&wave.ns, i));
-        let lifted = F8::load(&wave.lifted[i..]).gt(zero);
+        let lifted = F16::load(&wave.lifted[i..]).gt(zero);
         // The sample: direction, distance, radiance over density, the
         // density, and whether there is one.
         let (wi, distance, contribution, pdf, some) = match source {
             Source::Area(light) => {
-                let (u, v) = (F8::load(&wave.draws[0][i..]), F8::load(&wave.draws[1][i..]));
+                let (u, v) = (
+                    F16::load(&wave.draws[0][i..]),
+                    F16::load(&wave.draws[1][i..]),
+                );
                 let (o, eu, ev) = (
                     splat3(light.origin),
                     splat3(light.edge_u),
@@ -1321,7 +1273,7 @@ unsafe fn light_avx2(s: &PathSettings, wave: &mut ArrayWave, source: Source, slo
                 let d2 = dot(to, to);
                 let distance = d2.sqrt();
                 let cos_light = -dot(to, splat3(light.normal)) / distance;
-                let pdf = d2 / (cos_light * F8::splat(light.area));
+                let pdf = d2 / (cos_light * F16::splat(light.area));
                 let some = d2
                     .ne(zero)
                     .and(cos_light.gt(zero))
@@ -1335,7 +1287,7 @@ unsafe fn light_avx2(s: &PathSettings, wave: &mut ArrayWave, source: Source, slo
                 position,
                 intensity,
             } => {
-                let to = each3!(|k| F8::splat(position[k]) - p[k]);
+                let to = each3!(|k| F16::splat(position[k]) - p[k]);
                 let d2 = dot(to, to);
                 let distance = d2.sqrt();
                 let wi = map3!(to, |x| x / distance);
@@ -1350,12 +1302,15 @@ unsafe fn light_avx2(s: &PathSettings, wave: &mut ArrayWave, source: Source, slo
                 // normal, or, from a lifted point (which faces by its
                 // smooth normal too), around either, picked by the first
                 // number.
-                let (u, v) = (F8::load(&wave.draws[0][i..]), F8::load(&wave.draws[1][i..]));
-                let (half, two) = (F8::splat(0.5), F8::splat(2.0));
+                let (u, v) = (
+                    F16::load(&wave.draws[0][i..]),
+                    F16::load(&wave.draws[1][i..]),
+                );
+                let (half, two) = (F16::splat(0.5), F16::splat(2.0));
                 let smooth = lifted.and(half.le(u));
-                let u = F8::select(lifted, F8::select(smooth, two * u - one, two * u), u);
-                let around = each3!(|k| F8::select(smooth, ns[k], ng[k]));
-                let local = cosine_hemisphere8(u.min(F8::splat(1.0 - f32::EPSILON / 2.0)), v);
+                let u = F16::select(lifted, F16::select(smooth, two * u - one, two * u), u);
+                let around = each3!(|k| F16::select(smooth, ns[k], ng[k]));
+                let local = cosine_hemisphere8(u.min(F16::splat(1.0 - f32::EPSILON / 2.0)), v);
                 // `Frame::new(around).to_world(local)`.
                 let sign = one.copysign(around[2]);
                 let fa = -one / (sign + around[2]);
@@ -1369,8 +1324,11 @@ unsafe fn light_avx2(s: &PathSettings, wave: &mut ArrayWave, source: Source, slo
                 let wi = each3!(|k| fs[k] * local[0] + ft[k] * local[1] + around[k] * local[2]);
                 let some = yes.and_not(wi[1].le(zero)).and_not(local[2].le(zero));
                 // `Facing::ambient_pdf`.
-                let cosine = |n: [F8; 3]| dot(wi, n).max(zero) * frac_1_pi;
-                let pdf = F8::select(lifted, half * (cosine(ng) + cosine(ns)), cosine(ng));
+                let (cos_g, cos_s) = (
+                    dot(wi, ng).max(zero) * frac_1_pi,
+                    dot(wi, ns).max(zero) * frac_1_pi,
+                );
+                let pdf = F16::select(lifted, half * (cos_g + cos_s), cos_g);
                 let contribution = map3!(splat3(radiance), |x| x / pdf);
                 (wi, inf, contribution, pdf, some)
             }
@@ -1379,7 +1337,7 @@ unsafe fn light_avx2(s: &PathSettings, wave: &mut ArrayWave, source: Source, slo
         // unless the point is lifted; the BSDF (Lambertian) not zero.
         let z = dot(wi, ns);
         let in_front = dot(wi, ng).gt(zero);
-        let f = map3!(v3(&wave.albedo, i), |x| F8::select(
+        let f = map3!(v3(&wave.albedo, i), |x| F16::select(
             z.gt(zero),
             x * frac_1_pi,
             zero
@@ -1394,8 +1352,8 @@ unsafe fn light_avx2(s: &PathSettings, wave: &mut ArrayWave, source: Source, slo
                 let (a2, b2) = (a * a, b * b);
                 let sum = a2 + b2;
                 let plain = sum.gt(zero).and(sum.lt(inf));
-                let heuristic = F8::select(plain, a2 / sum, F8::select(a.ne(inf), zero, one));
-                F8::select(in_front.and(pdf.lt(inf)), heuristic, one)
+                let heuristic = F16::select(plain, a2 / sum, F16::select(a.ne(inf), zero, one));
+                F16::select(in_front.and(pdf.lt(inf)), heuristic, one)
             }
             None => one,
         };
@@ -1403,23 +1361,23 @@ unsafe fn light_avx2(s: &PathSettings, wave: &mut ArrayWave, source: Source, slo
         // The shadow ray, from the lifted point where there is one.
         let error = v3(&wave.error, i);
         let lift = v3(&wave.lift, i);
-        let from = each3!(|k| F8::select(lifted, p[k] + lift[k], p[k]));
+        let from = each3!(|k| F16::select(lifted, p[k] + lift[k], p[k]));
         // From a lifted point towards a point (not a direction), the ray
         // aims at the sample's point.
         let aimed = lifted.and(distance.lt(inf));
-        let from_error = each3!(|k| F8::select(
+        let from_error = each3!(|k| F16::select(
             lifted,
             error[k] + (p[k].abs() + lift[k].abs()) * g1,
             error[k]
         ));
         let reach = each3!(|k| p[k] + wi[k] * distance - from[k]);
         let length = dot(reach, reach).sqrt();
-        let dir = each3!(|k| F8::select(aimed, reach[k] / length, wi[k]));
-        let far = F8::select(aimed, length, distance);
+        let dir = each3!(|k| F16::select(aimed, reach[k] / length, wi[k]));
+        let far = F16::select(aimed, length, distance);
         let origin = spawn(from, from_error, ng, dir);
         let term = each3!(|k| f[k] * contribution[k] * scale);
         store3(term, &mut wave.term[slot], i);
-        F8::select(ok, one, zero).store(&mut wave.has_ray[slot][i..]);
+        F16::select(ok, one, zero).store(&mut wave.has_ray[slot][i..]);
         let ray = &mut wave.shadow[slot];
         for k in 0..3 {
             origin[k].store(&mut ray[k][i..]);
@@ -1430,11 +1388,20 @@ unsafe fn light_avx2(s: &PathSettings, wave: &mut ArrayWave, source: Source, slo
     }
 }
 
+lane_pass!(
+    light_pass = light_lanes(
+        s: &PathSettings,
+        wave: &mut ArrayWave,
+        source: Source,
+        slot: usize,
+    )
+);
+
 #[cfg(test)]
 mod tests {
     use super::*;
 
-    /// Eight generators side by side give each generator's own numbers,
+    /// Sixteen generators side by side give each generator's own numbers,
     /// bit for bit: lanes masked out keep their state, and a split gives
     /// each lane the child `Rng::split` gives.
     #[test]
@@ -1447,11 +1414,11 @@ mod tests {
         for (l, r) in alone.iter().enumerate() {
             rngs.set(l, r);
         }
-        let mut lanes = Rng8::load(&rngs, 0);
+        let mut lanes = Rng16::load(&rngs, 0);
         let (on, off) = (f32::from_bits(u32::MAX), 0.0);
         for round in 0..50 {
             // Every third lane, shifted each round, sits out.
-            let mask = F8(std::array::from_fn(|l| {
+            let mask = F16(std::array::from_fn(|l| {
                 if (l + round) % 3 == 0 {
                     off
                 } else {
