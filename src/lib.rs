@@ -1,6 +1,8 @@
 //! `hybrid`: a physically based path tracer for COLLADA scenes whose
 //! acceleration layer has two real backends, an in-house SAH BVH and Embree.
 //!
+//! - [`geom`]: boxes, rays, hits, rounding bounds, random numbers, warps.
+//! - [`simd`]: the CPU's instruction sets as tokens, and lanes of sixteen.
 //! - [`scene`]: the scene model and the COLLADA loader.
 //! - [`accel`]: the accelerator trait and its backends (native BVH, Embree,
 //!   brute force).
@@ -34,4 +36,5 @@ pub mod parity;
 pub mod render;
 pub mod report;
 pub mod scene;
+pub mod simd;
 pub mod text;

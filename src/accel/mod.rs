@@ -142,6 +142,28 @@ pub trait Accel: Sync + Send {
     fn stats(&self) -> AccelStats;
 }
 
+/// A backend whose batch queries are answered one ray at a time, each by
+/// `inner`'s single-ray query: the renderer's rays as a caller without
+/// packets would trace them (`hybrid render --no-packets`, and the
+/// report's batched-against-alone frames). The answers are `inner`'s, so
+/// the image is the same.
+pub struct OneByOne<'a, A>(pub &'a A);
+
+impl<A: Accel> Accel for OneByOne<'_, A> {
+    fn closest_hit(&self, ray: &Ray, counters: &mut TraceCounters) -> Option<Hit> {
+        self.0.closest_hit(ray, counters)
+    }
+    fn occluded(&self, ray: &Ray, counters: &mut TraceCounters) -> bool {
+        self.0.occluded(ray, counters)
+    }
+    fn stats(&self) -> AccelStats {
+        AccelStats {
+            batch_call: "one ray at a time (--no-packets)",
+            ..self.0.stats()
+        }
+    }
+}
+
 /// A library's batched query mode, as a plain C caller uses it
 /// ([`embree::PlainC::trace_batched`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

@@ -1,5 +1,5 @@
 //! The rays of a real render's waves (issue 45): a small frame of the
-//! scene rendered with every bounce's rays batched (`--waves`, one thread),
+//! scene rendered by the wavefront (`--mode wavefront`, one thread),
 //! its extension rays after the camera's (bounces 1 to 4) and every shadow
 //! ray of its direct lighting recorded in the order the renderer traces
 //! them, so that `hybrid bench` and other programs replay what a wave
@@ -13,7 +13,7 @@ use crate::accel::{Accel, AccelStats, Backend, Coherence, TraceCounters};
 use crate::geom::{Hit, Ray};
 use crate::measure::Query;
 use crate::render::integrator::{PathSettings, Shading};
-use crate::render::{render, Batching, RenderSettings, Silent};
+use crate::render::{render, Mode, RenderSettings, Silent};
 use crate::scene::Scene;
 
 /// The kinds a wave export writes: the extension rays (closest hits) and
@@ -93,7 +93,7 @@ pub fn wave_sets(
             max_bounces: 5,
             ..PathSettings::default()
         }),
-        batching: Batching::Waves,
+        mode: Some(Mode::Wavefront),
         ..RenderSettings::default()
     };
     let recorder = Recorder {

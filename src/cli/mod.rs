@@ -144,7 +144,7 @@ pub fn main() -> i32 {
             return 2;
         }
     };
-    if let Err(message) = crate::accel::native::cpu::Isa::check_variable() {
+    if let Err(message) = crate::simd::cpu::Isa::check_variable() {
         report_line("error", &message);
         return 2;
     }

@@ -1,6 +1,6 @@
 //! `hybrid render`: load, build the chosen backend, render, write, report.
 
-use crate::accel::native::cpu::Isa;
+use crate::simd::cpu::Isa;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
@@ -13,12 +13,12 @@ use crate::accel::embree::{BuildQuality, EmbreeOptions};
 use crate::accel::native::build::BuildMethod;
 use crate::accel::native::triangle::TriangleMode;
 use crate::accel::native::NativeOptions;
-use crate::accel::{Accel, BackendConfig};
+use crate::accel::{Accel, BackendConfig, OneByOne};
 use crate::choice::Choice;
 use crate::render::camera::CameraMode;
 use crate::render::film::{check_writable, rate_path, write_files, Exposure, Film, ToneMap};
-use crate::render::integrator::{arrays_take, Background, BounceView, DirectEstimator};
-use crate::render::{render, Batching, RenderOutput, RenderSettings};
+use crate::render::integrator::{Background, BounceView, DirectEstimator};
+use crate::render::{render, Mode, RenderOutput, RenderSettings};
 use crate::scene::environment::{EnvSampling, Environment};
 use crate::scene::{NormalMode, Scene};
 
@@ -88,26 +88,18 @@ pub struct RenderArgs {
     /// Seed: the same seed gives the same image for any thread count.
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
-    /// Trace every ray one at a time, camera rays too, instead of in
-    /// batch queries (the image is the same; for comparing the two).
+    /// How paths advance: `reference`, each path alone from its first hit
+    /// (renders everything, on any CPU), or `wavefront`, a wave's paths
+    /// together bounce by bounce, their state stepped sixteen at a time.
+    /// The image is the same; by default the wavefront where its lanes
+    /// take the scene's vertices, else the reference (`hybrid render`
+    /// says which and why).
+    #[arg(long, value_parser = choice::<Mode>())]
+    pub mode: Option<Mode>,
+    /// Answer every batch query one ray at a time, camera rays too (the
+    /// image is the same; for timing batched queries against single rays).
     #[arg(long)]
     pub no_packets: bool,
-    /// Advance the paths in waves, every bounce's rays and shadow rays
-    /// in batch queries, instead of batching camera rays only and walking
-    /// each path alone from its first hit (the image is the same). The
-    /// default where a wave in arrays steps the scene's Lambertian
-    /// vertices in lanes (smooth shading; point, directional, rectangular
-    /// area and ambient lights; light sampling or MIS; an AVX2 CPU; other
-    /// materials' vertices go path by path among them): faster there on
-    /// every backend measured but for a lone sphere; elsewhere slower
-    /// (docs/design.md).
-    #[arg(long, conflicts_with = "no_packets")]
-    pub waves: bool,
-    /// Batch camera rays only and walk each path alone from its first
-    /// hit, even where the default would run waves (the image is the
-    /// same; for comparing the two).
-    #[arg(long, conflicts_with_all = ["no_packets", "waves"])]
-    pub no_waves: bool,
     /// Output image: .png (tone-mapped) or .exr (raw radiance).
     #[arg(short = 'f')]
     pub output: Option<PathBuf>,
@@ -471,20 +463,6 @@ pub fn render_with(args: &RenderArgs, settings: &RenderSettings) -> Result<Rende
         scene.primitive_count(),
         start.elapsed().as_secs_f64() * 1e3
     );
-    // The default mode runs waves where a wave in arrays takes the scene
-    // (the fastest frames there on every backend, docs/design.md).
-    let waves;
-    let by_default = !(args.no_packets || args.waves || args.no_waves);
-    let settings = if by_default && arrays_take(&scene, settings.shading) {
-        waves = RenderSettings {
-            batching: Batching::Waves,
-            ..settings.clone()
-        };
-        &waves
-    } else {
-        settings
-    };
-
     if let Some(path) = &args.save_camera {
         let text = settings.camera_for(&scene).to_course().text();
         // Written as images are: under a temporary name, then renamed.
@@ -504,8 +482,22 @@ pub fn render_with(args: &RenderArgs, settings: &RenderSettings) -> Result<Rende
     let accel = backend.build(&scene).map_err(|e| e.to_string())?;
     let stats = accel.stats();
     say!("{}", stats.describe());
-    say!("rays: {}", settings.batching.describe());
-    if settings.batching != Batching::Alone {
+    let (mode, why) = Mode::choose(settings.mode, &scene, settings.shading);
+    let lanes = match mode {
+        Mode::Wavefront => format!(
+            ", stepped in {} lanes",
+            crate::simd::lanes::Vectors::widest().name()
+        ),
+        Mode::Reference => String::new(),
+    };
+    say!("mode: {}{lanes} ({why})", mode.name());
+    let settings = &RenderSettings {
+        mode: Some(mode),
+        ..settings.clone()
+    };
+    if args.no_packets {
+        say!("batch queries: one ray at a time (--no-packets)");
+    } else {
         say!("batch queries: {}", stats.batch_call);
     }
     if !backend.suits(&scene) {
@@ -520,7 +512,11 @@ pub fn render_with(args: &RenderArgs, settings: &RenderSettings) -> Result<Rende
     }
 
     let bar = Bar::new(settings);
-    let output = render(&scene, &accel, settings, &bar);
+    let output = if args.no_packets {
+        render(&scene, &OneByOne(&accel), settings, &bar)
+    } else {
+        render(&scene, &accel, settings, &bar)
+    };
     bar.finish();
 
     Ok(Rendered {

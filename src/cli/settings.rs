@@ -6,7 +6,7 @@ use super::render::RenderArgs;
 use crate::render::camera::ThinLens;
 use crate::render::camera_file::CourseCamera;
 use crate::render::integrator::{DirectEstimator, PathSettings, Shading};
-use crate::render::{Adaptive, Batching, Cell, RenderSettings};
+use crate::render::{Adaptive, Cell, Mode, RenderSettings};
 
 pub use crate::render::film::MAX_PIXELS;
 
@@ -87,6 +87,12 @@ impl RenderArgs {
                 "the angle must be 0..=180 degrees",
             ));
         }
+        if self.normals && self.mode == Some(Mode::Wavefront) {
+            return Err(refused(
+                "--mode wavefront",
+                "normal shading runs in the reference mode only; leave out --mode",
+            ));
+        }
         if self.leaf > 16 {
             return Err(refused(
                 format!("--leaf {}", self.leaf),
@@ -120,13 +126,7 @@ impl RenderArgs {
             sample_range: self.sample_range_checked(samples)?,
             lens: self.lens_checked()?,
             course_camera: self.course_camera()?,
-            batching: if self.no_packets {
-                Batching::Alone
-            } else if self.waves {
-                Batching::Waves
-            } else {
-                Batching::Camera
-            },
+            mode: self.mode,
         })
     }
 

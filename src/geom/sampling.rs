@@ -217,11 +217,10 @@ pub const COS_POLY: [f32; 3] = [2.443_315_7e-5, -1.388_731_6e-3, 4.166_664_6e-2]
 /// every `k / 2^24`). The nearest quarter turn is taken off exactly (`4
 /// turns` and the difference are exact), the rest is at most an eighth
 /// of a turn, where the polynomials hold; separate products and sums, no
-/// fused multiply-add, so that [`crate::render::wide::F16::sin_cos_turns`]
+/// fused multiply-add, so that the lanes' twin (`F16::sin_cos_turns`)
 /// gives each lane these bits. Inline, where libm's `sincosf` is a call:
-/// in the wave's passes sixteen lanes at a time (measured at eight:
-/// CBempty's stepping 11% faster than with libm's lane by lane, whose
-/// calls perf put at 4% of the frame; docs/experiments.md, stop 53).
+/// the wavefront's passes run it sixteen lanes at a time, where libm's
+/// calls lane by lane measured slower (docs/experiments.md).
 #[inline]
 pub fn sin_cos_turns(turns: f32) -> (f32, f32) {
     let t = 4.0 * turns;
@@ -251,13 +250,11 @@ mod tests {
     use super::*;
 
     /// Every number a generator's `next_f32` gives (`k / 2^24`) and the
-    /// turn's end: sine and cosine within 2^-23 of the exact values, and
-    /// the lanes' function gives the scalar one's bits.
+    /// turn's end: sine and cosine within 2^-23 of the exact values (the
+    /// lanes' twin is held to these bits in `crate::simd::lanes`).
     #[test]
-    fn sines_and_cosines_of_turns_are_close_and_the_lanes_agree() {
-        use crate::render::wide::{F16, LANES};
+    fn sines_and_cosines_of_turns_are_close() {
         let mut worst = 0.0f64;
-        let mut lanes = [0.0f32; LANES];
         for k in 0..=(1u32 << 24) {
             let turns = k as f32 / (1u32 << 24) as f32;
             let (sin, cos) = sin_cos_turns(turns);
@@ -265,18 +262,6 @@ mod tests {
             worst = worst
                 .max((f64::from(sin) - angle.sin()).abs())
                 .max((f64::from(cos) - angle.cos()).abs());
-            lanes[k as usize % LANES] = turns;
-            if k as usize % LANES == LANES - 1 || k == 1 << 24 {
-                let (s16, c16) = F16(lanes).sin_cos_turns();
-                for (l, &t) in lanes.iter().enumerate() {
-                    let (s, c) = sin_cos_turns(t);
-                    assert_eq!(
-                        (s16.0[l].to_bits(), c16.0[l].to_bits()),
-                        (s.to_bits(), c.to_bits()),
-                        "turns {t}"
-                    );
-                }
-            }
         }
         assert!(worst < 2f64.powi(-23), "largest error {worst:e}");
     }

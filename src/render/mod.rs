@@ -2,8 +2,14 @@
 //!
 //! - [`camera`]: ray generation and framing;
 //! - [`material`], [`light`]: scattering and light sampling;
-//! - [`integrator`]: normal shading and the path tracer;
-//! - [`film`]: the image and its files;
+//! - [`integrator`]: normal shading and the path tracer, one path at a
+//!   time: the reference every other mode matches bit for bit;
+//! - [`wavefront`]: the same path tracer for a wave of paths at once,
+//!   their state in lists, stepped sixteen at a time;
+//! - [`schedule`]: which of the two a render runs ([`Mode`]), and the
+//!   lists a thread's waves reuse;
+//! - [`times`]: where a render's time and memory went;
+//! - [`film`], [`part`]: the image, its files, and parts merged;
 //! - [`mitsuba`]: the same render as a Mitsuba 3 scene.
 //!
 //! Rows are rendered in parallel on a rayon pool of `threads` threads. Every
@@ -14,13 +20,13 @@ pub mod camera;
 pub mod camera_file;
 pub mod film;
 pub mod integrator;
-pub mod lanes;
 pub mod light;
 pub mod material;
 pub mod mitsuba;
 pub mod part;
-pub mod wave;
-pub mod wide;
+pub mod schedule;
+pub mod times;
+pub mod wavefront;
 
 use std::sync::Mutex;
 use std::time::Instant;
@@ -33,8 +39,10 @@ use self::camera_file::CourseCamera;
 use self::film::Film;
 use self::film::Origin;
 use self::integrator::{Integrator, Shading};
-use self::wave::Wave;
-pub use self::wave::{Batching, WaveTimes};
+pub use self::schedule::Mode;
+use self::schedule::{WaveLists, SIDE_BY_SIDE};
+pub use self::times::WaveTimes;
+use self::wavefront::Plan;
 use crate::accel::{Accel, TraceCounters};
 use crate::geom::sampling::{luminance, pixel_position, Rng};
 use crate::geom::Ray;
@@ -78,9 +86,10 @@ pub struct RenderSettings {
     pub lens: Option<ThinLens>,
     /// A camera file's camera (`-c`), instead of `camera`'s placement.
     pub course_camera: Option<CourseCamera>,
-    /// How rays reach the backend: camera rays batched, every bounce's
-    /// rays batched (waves), or one at a time. The image is the same either way.
-    pub batching: Batching,
+    /// How paths advance: one at a time or in a wavefront; `None`: as
+    /// [`Mode::choose`] picks for the scene. The image is the same either
+    /// way.
+    pub mode: Option<Mode>,
 }
 
 impl RenderSettings {
@@ -116,7 +125,7 @@ impl Default for RenderSettings {
             sample_range: None,
             lens: None,
             course_camera: None,
-            batching: Batching::Camera,
+            mode: None,
         }
     }
 }
@@ -126,7 +135,9 @@ pub struct RenderOutput {
     pub film: Film,
     pub counters: TraceCounters,
     pub seconds: f64,
-    /// Where the waves' time went (`--waves`; zero otherwise).
+    /// The mode it ran in.
+    pub mode: Mode,
+    /// Where the wavefront's time went (zero in the reference mode).
     pub wave_times: WaveTimes,
 }
 
@@ -190,6 +201,11 @@ fn render_rows<A: Accel>(
     let (w, h) = (settings.width, settings.height);
     let camera = settings.camera_for(scene);
     let integrator = Integrator::new(scene, accel, settings.shading);
+    let (mode, _) = Mode::choose(settings.mode, scene, settings.shading);
+    let plan = match mode {
+        Mode::Wavefront => Plan::new(&integrator),
+        Mode::Reference => None,
+    };
     let cell = settings.cell.unwrap_or(Cell {
         x: 0,
         y: 0,
@@ -219,7 +235,7 @@ fn render_rows<A: Accel>(
     rows.sort_unstable_by_key(|(row_index, _)| scattered(*row_index as u32));
     // The lists of a row's waves, handed from row to row: allocated and
     // first touched once per thread rather than once per row.
-    let spare: Mutex<Vec<RowLists>> = Mutex::new(Vec::new());
+    let spare: Mutex<Vec<WaveLists>> = Mutex::new(Vec::new());
     // One row per job: rayon would otherwise cut the rows into a few
     // pieces per thread, and the thread whose pieces cost less idles at
     // the end of the frame.
@@ -235,14 +251,18 @@ fn render_rows<A: Accel>(
                 .unwrap_or_else(|e| e.into_inner())
                 .pop()
                 .unwrap_or_default();
-            let times = render_row(
-                &integrator,
-                &camera,
-                settings,
+            let part = Row {
                 columns,
                 y,
-                sums,
-                counts,
+                sums: &mut *sums,
+                counts: &mut *counts,
+            };
+            let times = render_row(
+                &integrator,
+                plan.as_ref(),
+                &camera,
+                settings,
+                part,
                 &mut counters,
                 &mut lists,
             );
@@ -267,6 +287,7 @@ fn render_rows<A: Accel>(
         film,
         counters: totals,
         seconds: start.elapsed().as_secs_f64(),
+        mode: plan.as_ref().map_or(Mode::Reference, |_| Mode::Wavefront),
         wave_times,
     }
 }
@@ -315,60 +336,40 @@ fn converged(a: &Adaptive, n: u32, s1: f64, s2: f64) -> bool {
     interval <= a.tolerance as f64 * mean
 }
 
-/// Paths a wave of `--waves` holds at most: a row's pixels times as many
-/// of their samples as fit, or (a row wider than this over
-/// [`SIDE_BY_SIDE`]) an even piece of the row times that many samples. A
-/// wave in arrays holds up to about 0.85 KB a path with its rays, hits
-/// and tape, so up to about 1.7 MB per thread however wide the row. On
-/// Sapphire Rapids, before the arrays, 1024 measured faster than 256,
-/// 512, 2048, 4096 and 16384 (docs/experiments.md, "Wave size, again"); on
-/// Zen 4 with the arrays (stop 55) 2048 took 4-10% off the meshes' frames
-/// and left the Cornell boxes level; 4096 a little more on Zen 4, beyond
-/// Sapphire Rapids' 2 MB L2. What a larger wave bought was mostly more of
-/// each pixel's samples side by side (stop 56, [`SIDE_BY_SIDE`]), not
-/// fuller batches: keeping them full by regeneration measured slower.
-pub const WAVE_PATHS: usize = 2048;
-
-/// Samples of each pixel a wave holds side by side at least, where the
-/// batch has them: a row wider than a wave's paths over this goes in
-/// pieces (a wave of [`WAVE_PATHS`] then holds eight pixels of 256
-/// samples). A pixel's samples start along nearly one camera ray, so the
-/// more of them travel together, the tighter a wave's camera packets,
-/// the more its bounce rays share origins, and the more a wave's paths
-/// all hit or all miss (a wave over the background ends at its camera
-/// rays; one over the model stays full). On Zen 4 (stop 56), 256 against
-/// 4 took 14% off maxplanck's frame, 7% off sky/bunny's and 5% off
-/// cow's at 256 spp, on Embree as on native, and left the Cornell boxes
-/// level (docs/experiments.md).
-pub const SIDE_BY_SIDE: u32 = 256;
-
-/// Paths a wave holds in the other modes, where only its camera rays are
-/// traced together: Embree's camera packets measured 4% faster in waves
-/// of 4096 than of 1024, native's the same (docs/experiments.md).
-pub const CAMERA_WAVE_PATHS: usize = 4096;
+/// One row's part of a frame: its pixels' columns, and their sums and
+/// sample counts.
+struct Row<'f> {
+    columns: std::ops::Range<u32>,
+    y: u32,
+    sums: &'f mut [DVec3],
+    counts: &'f mut [u32],
+}
 
 /// Row `y`'s pixels in `columns`: the sums of their samples (all of them,
 /// or the settings' sample range) in double precision into `sums`, and the
 /// number each took into `counts`. The paths of the row's unfinished
 /// pixels, for as many consecutive sample indices as fit in a wave
-/// ([`WAVE_PATHS`] with `--waves`, else [`CAMERA_WAVE_PATHS`]), are traced
-/// as one wave ([`Wave`], as `settings.batching` says), a pixel's samples
-/// side by side. Each pixel takes its samples in order from
-/// its own random streams, its sums add them in sample order, and each
-/// path takes the same steps however it is batched, so the sums do not
-/// depend on the batching. Returns where the row's waves spent their time.
-#[allow(clippy::too_many_arguments)]
-fn render_row<'s, A: Accel>(
-    integrator: &Integrator<'s, A>,
+/// ([`Mode::wave_paths`]), are traced as one wave, a pixel's samples side
+/// by side: walked alone (the reference) or as a wavefront, as `plan`
+/// says. Each pixel takes its samples in order from its own random
+/// streams, its sums add them in sample order, and each path takes the
+/// same steps either way, so the sums do not depend on the mode. Returns
+/// where the row's waves spent their time.
+fn render_row<A: Accel>(
+    integrator: &Integrator<'_, A>,
+    plan: Option<&Plan>,
     camera: &Camera,
     settings: &RenderSettings,
-    columns: std::ops::Range<u32>,
-    y: u32,
-    sums: &mut [DVec3],
-    counts: &mut [u32],
+    row: Row<'_>,
     counters: &mut TraceCounters,
-    lists: &mut RowLists<'s>,
+    lists: &mut WaveLists,
 ) -> WaveTimes {
+    let Row {
+        columns,
+        y,
+        sums,
+        counts,
+    } = row;
     let cap = settings.samples.max(1);
     let (first, last) = settings.sample_range.unwrap_or((0, cap));
     let batch = settings.adaptive.map_or(cap, |a| a.batch.max(1));
@@ -377,17 +378,9 @@ fn render_row<'s, A: Accel>(
     counts.fill(0);
     let mut luminance_sums = vec![(0.0f64, 0.0f64); width];
     let mut active: Vec<usize> = (0..width).collect();
-    let RowLists {
-        wave,
-        rays,
-        streams,
-        values,
-    } = lists;
-    wave.times = WaveTimes::default();
-    let wave_paths = match settings.batching {
-        Batching::Waves => WAVE_PATHS,
-        Batching::Camera | Batching::Alone => CAMERA_WAVE_PATHS,
-    };
+    let mut times = WaveTimes::default();
+    let mode = plan.map_or(Mode::Reference, |_| Mode::Wavefront);
+    let wave_paths = mode.wave_paths();
     let mut done = first;
     while done < last && !active.is_empty() {
         let end = done.saturating_add(batch).min(last);
@@ -404,26 +397,20 @@ fn render_row<'s, A: Accel>(
                 // start in one pixel, so that their camera rays and the
                 // shadow rays of their first hits form tight packets.
                 let paths = pixels.len() * block as usize;
-                rays.resize(paths, Ray::new(Vec3::ZERO, Vec3::Z));
-                streams.resize(paths, Rng::new(0, 0));
-                let per_pixel = rays
+                lists.rays.resize(paths, Ray::new(Vec3::ZERO, Vec3::Z));
+                lists.streams.resize(paths, Rng::new(0, 0));
+                let per_pixel = lists
+                    .rays
                     .chunks_mut(block as usize)
-                    .zip(streams.chunks_mut(block as usize));
+                    .zip(lists.streams.chunks_mut(block as usize));
                 for (&p, (rays, streams)) in pixels.iter().zip(per_pixel) {
                     let x = columns.start + p as u32;
                     for ((ray, stream), sample) in rays.iter_mut().zip(streams).zip(i..) {
                         camera_sample(camera, settings, (x, y, sample), ray, stream);
                     }
                 }
-                wave.radiance(
-                    integrator,
-                    settings.batching,
-                    rays,
-                    streams,
-                    counters,
-                    values,
-                );
-                for (pixel_values, &p) in values.chunks(block as usize).zip(pixels) {
+                lists.radiance(integrator, plan, counters, &mut times);
+                for (pixel_values, &p) in lists.values.chunks(block as usize).zip(pixels) {
                     for &value in pixel_values {
                         sums[p] += value.as_dvec3();
                         let l = luminance(value) as f64;
@@ -447,25 +434,10 @@ fn render_row<'s, A: Accel>(
             }
         }
     }
-    if settings.batching == Batching::Waves {
-        wave.times.peak_bytes = wave.held_bytes()
-            + wave::held(rays)
-            + wave::held(streams)
-            + wave::held(values)
-            + wave::held(&luminance_sums)
-            + wave::held(&active);
+    if mode == Mode::Wavefront {
+        times.peak_bytes = lists.held_bytes() + times::held(&luminance_sums) + times::held(&active);
     }
-    wave.times
-}
-
-/// The lists a row's waves fill, kept for the next row a thread renders:
-/// the wave's own, and its paths' camera rays, random streams and values.
-#[derive(Default)]
-struct RowLists<'s> {
-    wave: Wave<'s>,
-    rays: Vec<Ray>,
-    streams: Vec<Rng>,
-    values: Vec<Vec3>,
+    times
 }
 
 #[cfg(test)]

@@ -170,7 +170,7 @@ pub fn run(options: &ReportOptions, log: &mut dyn FnMut(&str)) -> Result<(), Str
         counted(threads, "thread"),
     );
     md += &format!("Kernels: {}.\n\n", kernels.join(". "));
-    if let Some(cap) = crate::accel::native::cpu::Isa::cap_note() {
+    if let Some(cap) = crate::simd::cpu::Isa::cap_note() {
         md += &format!("{cap}.\n\n");
     }
     let verdict = headline::verdict(&per_scene, &headline);
@@ -193,7 +193,7 @@ pub fn run(options: &ReportOptions, log: &mut dyn FnMut(&str)) -> Result<(), Str
         start.elapsed().as_secs_f64()
     );
     let report_json = json!({
-        "machine": {"cpu": machine.cpu, "cores": machine.cores, "isa": machine.isa, "rustc": machine.rustc, "hybrid": machine.crate_version, "embree": embree_version, "kernels": kernels, "isa_ceiling": crate::accel::native::cpu::Isa::ceiling().name(), "date": machine.date},
+        "machine": {"cpu": machine.cpu, "cores": machine.cores, "isa": machine.isa, "rustc": machine.rustc, "hybrid": machine.crate_version, "embree": embree_version, "kernels": kernels, "isa_ceiling": crate::simd::cpu::Isa::ceiling().name(), "date": machine.date},
         "settings": {"quick": options.quick, "rays": budget.rays, "repeats": budget.repeats, "frame_repeats": budget.frame_repeats, "threads": threads},
         "answer": answer.trim(),
         "verdict": verdict.trim(),

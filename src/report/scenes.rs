@@ -8,6 +8,7 @@
 use super::budget::Budget;
 use super::budget::ALL_BUILDS_UP_TO;
 use crate::accel::config::{build_variants, compared};
+use crate::accel::OneByOne;
 use crate::accel::{Accel, AccelStats, Backend, BackendConfig};
 use crate::geom::ray::FlatRay;
 use crate::geom::Ray;
@@ -18,7 +19,7 @@ use crate::measure::{
     trace_all_batched, Measured,
 };
 use crate::render::integrator::{PathSettings, Shading};
-use crate::render::{render, Batching, RenderSettings, Silent, WaveTimes};
+use crate::render::{render, Mode, RenderSettings, Silent, WaveTimes};
 use crate::scene::Scene;
 
 /// One build variant: times on one thread and on all threads, and what
@@ -158,7 +159,7 @@ pub struct SceneResult {
     /// by round ([`paired_ratio`]): `(lo, median, hi)`.
     pub packet_frame: Vec<(f64, f64, f64)>,
     /// Per compared backend, the frame with every bounce in waves
-    /// (`--waves`), and its ratio to the default mode round by round.
+    /// (`--mode wavefront`), and its ratio to the reference round by round.
     pub frame_seconds_waves: Vec<Measured>,
     pub wave_frame: Vec<(f64, f64, f64)>,
     /// Per compared backend, the default frame and the waves' frame on one
@@ -335,33 +336,33 @@ pub fn measure(
     };
     // Interleaved as the rays are: a frame takes a tenth of a second, so
     // back-to-back repeats of one backend caught the machine's drift. Each
-    // backend in the renderer's three modes: camera rays in packets (the
-    // default), every ray alone, every bounce in waves; then the default
-    // and the waves again on one thread.
-    let one = |batching| RenderSettings {
-        threads: 1,
-        batching,
+    // backend in the renderer's three ways: the reference mode with camera
+    // rays in packets, the same with every ray alone (its batch queries
+    // answered one ray at a time), the wavefront; then the reference and
+    // the wavefront again on one thread.
+    let with = |mode, threads| RenderSettings {
+        mode: Some(mode),
+        threads,
         ..settings.clone()
     };
     let modes = [
-        settings.clone(),
-        RenderSettings {
-            batching: Batching::Alone,
-            ..settings.clone()
-        },
-        RenderSettings {
-            batching: Batching::Waves,
-            ..settings.clone()
-        },
-        one(Batching::Camera),
-        one(Batching::Waves),
+        with(Mode::Reference, threads),
+        with(Mode::Reference, threads),
+        with(Mode::Wavefront, threads),
+        with(Mode::Reference, 1),
+        with(Mode::Wavefront, 1),
     ];
     let m = modes.len();
     // A backend's frames are neighbours in every round (forwards and
     // backwards alike), so their ratios are taken round by round.
     let mut wave_times = vec![WaveTimes::default(); backends.len()];
     let samples = time_interleaved_samples(m * backends.len(), budget.frame_repeats, |i| {
-        let out = render(scene, &backends[i / m], &modes[i % m], &Silent);
+        let (backend, settings) = (&backends[i / m], &modes[i % m]);
+        let out = if i % m == 1 {
+            render(scene, &OneByOne(backend), settings, &Silent)
+        } else {
+            render(scene, backend, settings, &Silent)
+        };
         wave_times[i / m] += out.wave_times;
         out
     });

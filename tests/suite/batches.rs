@@ -7,8 +7,8 @@
 
 use std::sync::atomic::{AtomicU64, Ordering};
 
-use hybrid::accel::native::cpu::Avx2;
 use hybrid::accel::native::NativeOptions;
+use hybrid::accel::OneByOne;
 use hybrid::accel::{Accel, BackendConfig, Coherence, TraceCounters};
 use hybrid::geom::{Hit, Ray};
 use hybrid::measure::coherence_of;
@@ -18,10 +18,12 @@ use hybrid::parity::rays::{
 };
 use hybrid::render::camera::ThinLens;
 use hybrid::render::integrator::{
-    arrays_take, Background, BounceView, DirectEstimator, Integrator, PathSettings, Shading,
+    Background, BounceView, DirectEstimator, Integrator, PathSettings, Shading,
 };
-use hybrid::render::{render, Adaptive, Batching, RenderSettings, Silent, WAVE_PATHS};
+use hybrid::render::wavefront::{lanes_take, Plan};
+use hybrid::render::{render, Adaptive, Mode, RenderSettings, Silent};
 use hybrid::scene::Scene;
+use hybrid::simd::lanes::Vectors;
 
 use crate::common::scene_or_skip;
 
@@ -164,7 +166,7 @@ fn box_tests(accel: &impl Accel, rays: &[Ray], occlusion: bool) -> (u64, u64) {
 /// Whether the native packet kernels run here (the CPU has AVX2 and
 /// `HYBRID_ISA` allows it).
 fn simd() -> bool {
-    hybrid::accel::native::cpu::Avx2::detect().is_some()
+    hybrid::simd::cpu::Avx2::detect().is_some()
 }
 
 #[test]
@@ -195,20 +197,38 @@ fn batch_queries_answer_as_single_rays_on_every_backend() {
     }
 }
 
-/// Renders `scene` through `accel` with rays batched as `batching` says.
-fn frame(
+/// The ways a frame is rendered that must give the same image: the
+/// reference mode, the same with every batch query answered one ray at a
+/// time, and the wavefront.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Way {
+    Reference,
+    OneByOne,
+    Wavefront,
+}
+
+/// Renders `scene` through `accel` the `way` given: its sums, samples per
+/// pixel and rays traced.
+fn frame<A: Accel>(
     scene: &Scene,
-    accel: &impl Accel,
+    accel: &A,
     settings: &RenderSettings,
-    batching: Batching,
+    way: Way,
     threads: usize,
 ) -> (Vec<glam::DVec3>, Vec<u32>, u64) {
     let settings = RenderSettings {
-        batching,
+        mode: Some(match way {
+            Way::Wavefront => Mode::Wavefront,
+            Way::Reference | Way::OneByOne => Mode::Reference,
+        }),
         threads,
         ..settings.clone()
     };
-    let out = render(scene, accel, &settings, &Silent);
+    let out = if way == Way::OneByOne {
+        render(scene, &OneByOne(accel), &settings, &Silent)
+    } else {
+        render(scene, accel, &settings, &Silent)
+    };
     (out.film.sums, out.film.samples, out.counters.rays)
 }
 
@@ -250,11 +270,12 @@ impl<A: Accel> Accel for Batches<'_, A> {
 }
 
 /// How the renderer batches its rays changes nothing: native gives the
-/// same bits alone, with camera rays batched and in waves (path tracing
-/// with each direct-lighting estimator, Russian roulette, `-o 0`, normals,
-/// adaptive sampling, a lens, any thread count) and traces as many rays;
-/// Embree, whose packet kernels may round `t` differently in the last
-/// bits, the same image within a hair.
+/// same bits one ray at a time, in the reference mode (camera rays
+/// batched) and in the wavefront (path tracing with each direct-lighting
+/// estimator, Russian roulette, `-o 0`, adaptive sampling, a lens, any
+/// thread count; normals in the reference mode, which alone renders them)
+/// and traces as many rays; Embree, whose packet kernels may round `t`
+/// differently in the last bits, the same image within a hair.
 #[test]
 fn batching_leaves_the_image_unchanged() {
     let scene = crate::common::default_scene();
@@ -321,11 +342,11 @@ fn batching_leaves_the_image_unchanged() {
     ];
     let native = BackendConfig::NATIVE.build(&scene).expect("native builds");
     for (v, settings) in variants.iter().enumerate() {
-        let alone = frame(&scene, &native, settings, Batching::Alone, 1);
-        for batching in [Batching::Camera, Batching::Waves] {
+        let alone = frame(&scene, &native, settings, Way::OneByOne, 1);
+        for way in [Way::Reference, Way::Wavefront] {
             for threads in [1, 3] {
-                let batched = frame(&scene, &native, settings, batching, threads);
-                let what = format!("variant {v}, {batching:?}, {threads} threads");
+                let batched = frame(&scene, &native, settings, way, threads);
+                let what = format!("variant {v}, {way:?}, {threads} threads");
                 assert!(alone.0 == batched.0, "{what}: sums differ");
                 assert_eq!(alone.1, batched.1, "{what}: samples per pixel differ");
                 assert_eq!(alone.2, batched.2, "{what}: rays traced differ");
@@ -333,14 +354,14 @@ fn batching_leaves_the_image_unchanged() {
         }
     }
     // The rays went through the batch queries: every camera ray, and in
-    // waves every ray of every bounce, none alone.
+    // the wavefront every ray of every bounce, none alone.
     for estimator in [DirectEstimator::Mis, DirectEstimator::LightSampling] {
-        let count = |settings: &RenderSettings, batching| {
+        let count = |settings: &RenderSettings, way| {
             let counting = Batches {
                 inner: &native,
                 counts: Default::default(),
             };
-            frame(&scene, &counting, settings, batching, 2);
+            frame(&scene, &counting, settings, way, 2);
             counting.counts.map(AtomicU64::into_inner)
         };
         let pixels = u64::from(base.width * base.height * base.samples);
@@ -349,7 +370,7 @@ fn batching_leaves_the_image_unchanged() {
             max_bounces: 4,
             ..PathSettings::default()
         });
-        let [camera, alone] = [Batching::Camera, Batching::Alone].map(|b| count(&deep, b));
+        let [camera, alone] = [Way::Reference, Way::OneByOne].map(|w| count(&deep, w));
         // [closest_hits, occluded_all, occluded, closest_hit] rays.
         assert_eq!(alone[..2], [0, 0], "{estimator:?}: alone");
         assert_eq!(camera[0], pixels, "{estimator:?}: camera rays");
@@ -358,20 +379,20 @@ fn batching_leaves_the_image_unchanged() {
             [0, alone[2], alone[3]],
             "{estimator:?}: camera batches"
         );
-        let waves = count(&deep, Batching::Waves);
+        let waves = count(&deep, Way::Wavefront);
         assert!(alone[3] > pixels + pixels / 4, "{estimator:?}: {alone:?}");
         assert_eq!(waves, [alone[3], alone[2], 0, 0], "{estimator:?}: waves");
     }
     // Adaptive sampling did stop some pixels early, so the check above
     // covered pixels leaving the waves.
-    let adaptive = frame(&scene, &native, &variants[2], Batching::Waves, 1);
+    let adaptive = frame(&scene, &native, &variants[2], Way::Wavefront, 1);
     assert!(adaptive.1.iter().any(|&n| n < 32) && adaptive.1.contains(&32));
     for config in [BackendConfig::EMBREE, BackendConfig::EMBREE4] {
         let embree = config.build(&scene).expect("embree builds");
-        let alone = frame(&scene, &embree, &base, Batching::Alone, 1);
-        for batching in [Batching::Camera, Batching::Waves] {
-            let batched = frame(&scene, &embree, &base, batching, 2);
-            let what = format!("{} {batching:?}", config.label());
+        let alone = frame(&scene, &embree, &base, Way::OneByOne, 1);
+        for way in [Way::Reference, Way::Wavefront] {
+            let batched = frame(&scene, &embree, &base, way, 2);
+            let what = format!("{} {way:?}", config.label());
             assert_eq!(alone.2, batched.2, "{what}: rays traced differ");
             let (mut diff, mut total) = (0.0, 0.0);
             for (a, b) in alone.0.iter().zip(&batched.0) {
@@ -387,9 +408,12 @@ fn batching_leaves_the_image_unchanged() {
     }
 }
 
-/// A wave in arrays (its paths' state in lists, stepped eight paths at a
-/// time: `render::integrator::ArrayWave`) gives the bits of the paths
-/// walked alone, and traces as many rays: smoothly shaded triangles and
+/// The three ways to render a frame give the same bits and trace as many
+/// rays: the reference mode (each path walked alone from its batched
+/// camera rays), the same with every batch query answered one ray at a
+/// time, and the wavefront (its paths' state in lists, stepped sixteen at
+/// a time in AVX-512, AVX2 or the scalar twin, as the CPU and
+/// `HYBRID_ISA` allow: CI runs this under each). Smoothly shaded triangles and
 /// spheres of Lambertian and emitting materials lit by an area light
 /// (CBbunny), a point light (CBempty) and a directional one (maxplanck);
 /// with a mirror and a glass sphere (CBspheres) and a rough conductor
@@ -399,11 +423,11 @@ fn batching_leaves_the_image_unchanged() {
 /// MIS, light sampling
 /// and hemisphere sampling (whose vertices all go path by path), several
 /// light samples, Russian roulette, `-o 0`, direct light only, a black
-/// background and adaptive sampling, on one thread and three. Where the
-/// CPU runs AVX2 the arrays do take these frames, in lanes but for
-/// hemisphere sampling.
+/// background and adaptive sampling, on one thread and three; normals in
+/// the two reference ways. The wavefront's lanes take these frames but
+/// for hemisphere sampling, whose vertices all go path by path.
 #[test]
-fn waves_in_arrays_give_the_bits_of_paths_alone() {
+fn the_modes_give_the_same_bits() {
     let mut scenes = Vec::new();
     for name in [
         "sky/CBbunny.dae",
@@ -475,37 +499,50 @@ fn waves_in_arrays_give_the_bits_of_paths_alone() {
     for (name, scene) in &scenes {
         let native = BackendConfig::NATIVE.build(scene).expect("native builds");
         for (v, settings) in variants.iter().enumerate() {
-            if Avx2::detect().is_some() {
-                let integrator = Integrator::new(scene, &native, settings.shading);
-                assert!(
-                    integrator.array_plan(Avx2::detect()).is_some(),
-                    "{name}, variant {v}: the arrays refused it"
-                );
-                let hemisphere = v == variants.len() - 1;
-                assert_eq!(
-                    arrays_take(scene, settings.shading),
-                    !hemisphere,
-                    "{name}, variant {v}: in lanes or not"
-                );
-            }
-            let alone = frame(scene, &native, settings, Batching::Alone, 1);
-            for threads in [1, 3] {
-                let waves = frame(scene, &native, settings, Batching::Waves, threads);
-                let what = format!("{name}, variant {v}, {threads} threads");
-                assert!(alone.0 == waves.0, "{what}: sums differ");
-                assert_eq!(alone.1, waves.1, "{what}: samples per pixel differ");
-                assert_eq!(alone.2, waves.2, "{what}: rays traced differ");
+            let integrator = Integrator::new(scene, &native, settings.shading);
+            let plan = Plan::new(&integrator).expect("the wavefront plans path tracing");
+            let hemisphere = v == variants.len() - 1;
+            assert_eq!(plan.in_lanes(), !hemisphere, "{name}, variant {v}");
+            assert_eq!(lanes_take(scene, settings.shading), !hemisphere);
+            let chosen = Mode::choose(None, scene, settings.shading).0;
+            let default = if hemisphere {
+                Mode::Reference
+            } else {
+                Mode::Wavefront
+            };
+            assert_eq!(chosen, default, "{name}, variant {v}: the default mode");
+            let reference = frame(scene, &native, settings, Way::Reference, 1);
+            let ways = [(Way::OneByOne, 1), (Way::Wavefront, 1), (Way::Wavefront, 3)];
+            for (way, threads) in ways {
+                let other = frame(scene, &native, settings, way, threads);
+                let what = format!("{name}, variant {v}, {way:?} on {threads} threads");
+                assert!(reference.0 == other.0, "{what}: sums differ");
+                assert_eq!(reference.1, other.1, "{what}: samples per pixel differ");
+                assert_eq!(reference.2, other.2, "{what}: rays traced differ");
             }
         }
     }
-    // Normals go through the paths' states, as does everything on a CPU
-    // without AVX2.
+    eprintln!("wavefront lanes: {}", Vectors::widest().name());
+    // Normals: the reference mode alone renders them, whatever is asked.
     let scene = &scenes[0].1;
     let native = BackendConfig::NATIVE.build(scene).expect("native builds");
     let normals = Integrator::new(scene, &native, Shading::Normals);
-    assert!(normals.array_plan(Avx2::detect()).is_none());
-    let path = Integrator::new(scene, &native, Shading::Path(PathSettings::default()));
-    assert!(path.array_plan(None).is_none());
+    assert!(Plan::new(&normals).is_none());
+    for asked in [None, Some(Mode::Wavefront)] {
+        assert_eq!(
+            Mode::choose(asked, scene, Shading::Normals).0,
+            Mode::Reference
+        );
+    }
+    let settings = RenderSettings {
+        shading: Shading::Normals,
+        ..base.clone()
+    };
+    let reference = frame(scene, &native, &settings, Way::Reference, 2);
+    assert_eq!(
+        reference,
+        frame(scene, &native, &settings, Way::OneByOne, 1)
+    );
 }
 
 /// A wave renderer says where its time went: each phase (extension-ray
@@ -533,11 +570,12 @@ fn waves_say_where_their_time_went() {
         &scene,
         &native,
         &RenderSettings {
-            batching: Batching::Waves,
+            mode: Some(Mode::Wavefront),
             ..settings.clone()
         },
         &Silent,
     );
+    assert_eq!(waves.mode, Mode::Wavefront);
     let t = waves.wave_times;
     assert!(
         t.closest > 0.0 && t.occluded > 0.0 && t.paths > 0.0,
@@ -549,35 +587,28 @@ fn waves_say_where_their_time_went() {
         (shares.iter().sum::<f64>() - 1.0).abs() < 1e-9,
         "{shares:?}"
     );
-    // In arrays, the stepping is broken down by step, and the steps make
-    // up all of it; otherwise there is no breakdown.
+    // The stepping is broken down by step, and the steps make up all of
+    // it.
     let s = t.steps;
-    if arrays_take(&scene, settings.shading) {
-        assert!(
-            s.arrive > 0.0 && s.light > 0.0 && s.leave > 0.0,
-            "a step took no time: {s:?}"
-        );
-        let sum = s.arrive + s.light + s.leave;
-        assert!(
-            (sum - t.paths).abs() <= 1e-9 * t.paths,
-            "{s:?} of {}",
-            t.paths
-        );
-    } else {
-        assert_eq!(s.shares(), None, "{s:?}");
-    }
-    for batching in [Batching::Camera, Batching::Alone] {
-        let out = render(
-            &scene,
-            &native,
-            &RenderSettings {
-                batching,
-                ..settings.clone()
-            },
-            &Silent,
-        );
-        assert_eq!(out.wave_times, Default::default(), "{batching:?}");
-    }
+    assert!(
+        s.arrive > 0.0 && s.light > 0.0 && s.leave > 0.0,
+        "a step took no time: {s:?}"
+    );
+    let sum = s.arrive + s.light + s.leave;
+    assert!(
+        (sum - t.paths).abs() <= 1e-9 * t.paths,
+        "{s:?} of {}",
+        t.paths
+    );
+    let reference = RenderSettings {
+        mode: Some(Mode::Reference),
+        ..settings.clone()
+    };
+    let out = render(&scene, &native, &reference, &Silent);
+    assert_eq!(out.mode, Mode::Reference);
+    assert_eq!(out.wave_times, Default::default());
+    let out = render(&scene, &OneByOne(&native), &reference, &Silent);
+    assert_eq!(out.wave_times, Default::default());
 }
 
 /// A wave renderer says the most memory one thread's wave held (its
@@ -596,7 +627,7 @@ fn waves_say_how_much_memory_a_thread_held() {
         samples: 16,
         seed: 3,
         threads,
-        batching: Batching::Waves,
+        mode: Some(Mode::Wavefront),
         shading: Shading::Path(PathSettings {
             light_samples: 1,
             max_bounces: 5,
@@ -613,9 +644,10 @@ fn waves_say_how_much_memory_a_thread_held() {
     // A wave holds the 16 samples of an even piece of the row's 160
     // pixels, as many as fit, each path its state and at least a camera
     // ray.
-    let pieces = 160usize.div_ceil(WAVE_PATHS / 16);
+    let wave_paths = Mode::Wavefront.wave_paths();
+    let pieces = 160usize.div_ceil(wave_paths / 16);
     let paths = 160usize.div_ceil(pieces) * 16;
-    let bound = WAVE_PATHS * 1024;
+    let bound = wave_paths * 1024;
     for (threads, held) in [(1, one), (3, three)] {
         assert!(held > paths * 32, "{held} bytes, {threads} threads");
         assert!(held <= bound, "{held} bytes a thread, {threads} threads");
@@ -665,7 +697,7 @@ fn simd_intrinsics_are_inlined_into_their_kernels() {
         "NativeBvh::group_avx2",
         "NativeBvh::group16",
         "traverse::avx2::",
-        // The wave's passes in lanes, each compiled for AVX2 and AVX-512:
+        // The wavefront's passes in lanes, each compiled for AVX2 and AVX-512:
         // a closure or lane operation left out of line there runs without
         // the pass's vectors.
         "_pass::avx2",
@@ -676,7 +708,7 @@ fn simd_intrinsics_are_inlined_into_their_kernels() {
         "try_from_fn",
         "core_arch::x86",
         "{{closure}}",
-        "wide::F16",
+        "lanes::F16",
     ];
     let mut kernel = None;
     let mut kernels_seen = 0;
@@ -763,27 +795,27 @@ fn packets_meet_ties_and_the_root_box_as_single_rays() {
         }
     }
     let dir = crate::common::scratch("packets-frame");
-    let frame = |flag: &str| {
-        let out = dir.join(format!("frame{flag}.exr"));
+    let frame_in = |flags: &[&str]| {
+        let out = dir.join(format!("frame{}.exr", flags.join("")));
         let (out_arg, scene_arg) = (out.to_string_lossy(), path.to_string_lossy());
         let mut args = vec![
             "render", "-t", "2", "-r", "160", "120", "-s", "64", "-m", "5",
         ];
         args.extend(["-l", "1", "--seed", "3", "-f", &out_arg, &scene_arg]);
-        if !flag.is_empty() {
-            args.push(flag);
-        }
+        args.extend(flags);
         let o = crate::common::hybrid(&args, &dir);
         assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
         std::fs::read(&out).unwrap()
     };
-    let alone = frame("--no-packets");
+    let alone = frame_in(&["--no-packets"]);
     assert!(
-        frame("") == alone,
+        frame_in(&[]) == alone,
         "camera batches and rays alone give other frames"
     );
-    assert!(
-        frame("--waves") == alone,
-        "waves and rays alone give other frames"
-    );
+    for mode in ["reference", "wavefront"] {
+        assert!(
+            frame_in(&["--mode", mode]) == alone,
+            "{mode} and rays alone give other frames"
+        );
+    }
 }

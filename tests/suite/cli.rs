@@ -222,29 +222,28 @@ fn same_seed_same_bytes_for_any_thread_count() {
     );
 }
 
-/// `hybrid render` runs waves by default where a wave in arrays takes the
-/// scene (CBbunny and the default scene, on a CPU with AVX2), camera
-/// batches where it does not (hemisphere sampling) and with `--no-waves`:
-/// the same bytes either way.
+/// `hybrid render` says which mode it runs and why, chosen in one place:
+/// the wavefront by default where its lanes take the scene (CBbunny and
+/// the default scene, on any CPU), the reference where they do not
+/// (hemisphere sampling) or for normals, and either as asked with
+/// `--mode`: the same bytes either way. `--mode wavefront --normals` is
+/// refused before any work.
 #[test]
-fn the_default_mode_runs_waves_where_arrays_take_the_scene() {
+fn the_mode_is_chosen_in_one_place_and_said() {
     let Some(scene) = common::shared("sky/CBbunny.dae") else {
         return;
     };
-    let dir = common::scratch("cli-default-waves");
+    let dir = common::scratch("cli-default-mode");
     let scene = scene.to_str().unwrap();
-    let waves = "rays: every bounce's rays of a wave of paths together";
-    let camera = "rays: camera rays together";
-    let arrays = hybrid::accel::native::cpu::Avx2::detect().is_some();
+    let wavefront = "mode: wavefront, stepped in ";
+    let reference = "mode: reference (";
     let mut images = Vec::new();
     for (extra, expected) in [
-        (None, if arrays { waves } else { camera }),
-        (Some("--no-waves"), camera),
+        (&[][..], wavefront),
+        (&["--mode", "reference"][..], reference),
+        (&["--mode", "wavefront", "--no-packets"][..], wavefront),
     ] {
-        let name = format!(
-            "{}.exr",
-            extra.map_or("default", |e| e.trim_start_matches('-'))
-        );
+        let name = format!("{}.exr", images.len());
         let mut args = vec!["render", scene, "-r", "24", "18", "-s", "4", "-m", "4"];
         args.extend(extra);
         args.extend(["-f", &name]);
@@ -258,32 +257,53 @@ fn the_default_mode_runs_waves_where_arrays_take_the_scene() {
         images.push(std::fs::read(dir.join(&name)).unwrap());
     }
     assert!(
-        images[0] == images[1],
-        "the two modes wrote different bytes"
+        images.iter().all(|i| *i == images[0]),
+        "the modes wrote different bytes"
     );
-    let o = hybrid(
-        &["render", "-r", "24", "18", "-s", "2", "-f", "d.png"],
-        &dir,
-    );
-    assert!(o.status.success(), "{}", text(&o));
-    let expected = if arrays { waves } else { camera };
-    assert!(
-        text(&o).contains(expected),
-        "the default scene: {}",
-        text(&o)
-    );
+    for (args, expected) in [
+        (
+            vec!["render", "-r", "24", "18", "-s", "2", "-f", "d.png"],
+            wavefront,
+        ),
+        (
+            vec![
+                "render", scene, "-H", "-r", "24", "18", "-s", "2", "-f", "h.png",
+            ],
+            reference,
+        ),
+        (
+            vec![
+                "render",
+                scene,
+                "--normals",
+                "-r",
+                "24",
+                "18",
+                "-f",
+                "n.png",
+            ],
+            reference,
+        ),
+    ] {
+        let o = hybrid(&args, &dir);
+        assert!(o.status.success(), "{}", text(&o));
+        assert!(text(&o).contains(expected), "{args:?}: {}", text(&o));
+    }
     let o = hybrid(
         &[
-            "render", scene, "-H", "-r", "24", "18", "-s", "2", "-f", "h.png",
+            "render",
+            scene,
+            "--normals",
+            "--mode",
+            "wavefront",
+            "-f",
+            "w.png",
         ],
         &dir,
     );
-    assert!(o.status.success(), "{}", text(&o));
-    assert!(
-        text(&o).contains(camera),
-        "hemisphere sampling: {}",
-        text(&o)
-    );
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+    assert!(text(&o).contains("--mode wavefront"), "{}", text(&o));
+    assert!(!dir.join("w.png").exists());
 }
 
 #[test]

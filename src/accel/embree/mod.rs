@@ -171,7 +171,7 @@ impl<'s, V: Version> EmbreeAccel<'s, V> {
         let config: Vec<String> = (options.threads > 0)
             .then(|| format!("threads={}", options.threads))
             .into_iter()
-            .chain(crate::accel::native::cpu::Isa::embree_config())
+            .chain(crate::simd::cpu::Isa::embree_config())
             .collect();
         let config = config.join(",");
         let device = Device::new(api, &config).map_err(AccelError::Embree)?;

@@ -6,7 +6,8 @@
 //! - [`tree`]: the node list the kernels may trust, checked once;
 //! - `traverse`: the AVX2 and scalar kernels, private to the backend;
 //! - [`triangle`], [`sphere`]: the primitive tests;
-//! - [`cpu`]: the token that proves AVX2 was detected.
+//! - the tokens that prove AVX2 or AVX-512 was detected are
+//!   [`crate::simd::cpu`]'s.
 //!
 //! Leaf data are stored in the order the tree visits them (depth first),
 //! precomputed for the chosen triangle test: Möller–Trumbore in 4-wide
@@ -14,7 +15,6 @@
 
 mod batch;
 pub mod build;
-pub mod cpu;
 mod leaves;
 mod memory;
 pub mod node;
@@ -32,7 +32,6 @@ use rayon::prelude::*;
 
 use self::batch::PacketKernels;
 use self::build::{BuildMethod, BuiltTree, TreeShape};
-use self::cpu::Avx2;
 use self::node::{Node8, MAX_LEAF_FIRST};
 use self::traverse::BoxTest;
 use self::tree::{Tree, MAX_DEPTH};
@@ -41,6 +40,7 @@ use super::{Accel, AccelError, AccelStats, Coherence, TraceCounters, TreeFacts};
 use crate::choice::Choice;
 use crate::geom::{Bounds, Hit, Ray};
 use crate::scene::Scene;
+use crate::simd::cpu::Avx2;
 
 /// Build and traversal options of the native backend.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

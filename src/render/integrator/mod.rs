@@ -25,16 +25,14 @@
 
 use glam::Vec3;
 
-mod arrays;
 mod direct;
-mod paths;
+mod settings;
 mod shadows;
+mod walk;
 
-pub use self::arrays::{arrays_take, ArrayPlan, ArrayWave};
-use self::paths::Walk;
-pub use self::paths::{PathState, Paused};
-pub use self::shadows::ShadowTape;
-use self::shadows::Shadows;
+pub use self::settings::{Background, BounceView, DirectEstimator, PathSettings, Shading};
+pub(in crate::render) use self::shadows::{Deferred, ShadowTape, Shadows, Span};
+pub(in crate::render) use self::walk::Walk;
 
 use super::light::{ambient_radiance, escaped_radiance, pdf_li, Facing, LightRef, LightSet};
 use super::material::{self, emitted};
@@ -44,134 +42,27 @@ use crate::geom::sampling::{Frame, Rng};
 use crate::geom::{gamma, Hit, Ray};
 use crate::scene::{Material, Scene, SurfacePoint};
 
-/// How direct lighting is estimated at a diffuse or glossy vertex.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
-pub enum DirectEstimator {
-    /// Uniform directions over the hemisphere, traced to whatever emits.
-    Hemisphere,
-    /// Points sampled on the lights, tested with shadow rays.
-    LightSampling,
-    /// Light sampling and BSDF sampling combined by the power heuristic.
-    #[default]
-    Mis,
-}
-
-crate::choice!(DirectEstimator { Mis => "mis", LightSampling => "light", Hemisphere => "hemisphere" });
-
-/// Which bounces an image shows.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
-pub enum BounceView {
-    #[default]
-    All,
-    /// Emitted light seen directly and direct lighting (bounces 0 and 1).
-    Direct,
-    /// Light that scattered at least twice.
-    Indirect,
-}
-
-crate::choice!(BounceView { All => "all", Direct => "direct", Indirect => "indirect" });
-
-/// What camera rays that miss the scene see.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
-pub enum Background {
-    /// The sky: the ambient light above the horizon and the environment
-    /// map (physical).
-    #[default]
-    Sky,
-    /// Black, as in the course's gallery; the sky still lights the scene.
-    Black,
-}
-
-crate::choice!(Background { Sky => "sky", Black => "black" });
-
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct PathSettings {
-    pub estimator: DirectEstimator,
-    /// Samples per area (and ambient) light, or hemisphere samples.
-    pub light_samples: u32,
-    pub max_bounces: u32,
-    /// False: only bounce `max_bounces` is shown (`-o 0`).
-    pub accumulate: bool,
-    pub view: BounceView,
-    /// Russian roulette continuation probability, from the second vertex on.
-    pub russian_roulette: Option<f32>,
-    pub background: Background,
-}
-
-impl Default for PathSettings {
-    fn default() -> Self {
-        PathSettings {
-            estimator: DirectEstimator::Mis,
-            light_samples: 1,
-            max_bounces: 1,
-            accumulate: true,
-            view: BounceView::All,
-            russian_roulette: None,
-            background: Background::Sky,
-        }
-    }
-}
-
-impl PathSettings {
-    /// The last bounce the image shows: paths stop there (0 when it shows
-    /// none, say `--only direct -o 0 -m 5`).
-    pub fn last_bounce(&self) -> u32 {
-        let top = match self.view {
-            BounceView::Direct => self.max_bounces.min(1),
-            _ => self.max_bounces,
-        };
-        if self.accumulate || self.counts(top) {
-            top
-        } else {
-            0
-        }
-    }
-
-    #[inline]
-    fn counts(&self, bounce: u32) -> bool {
-        let in_range = if self.accumulate {
-            bounce <= self.max_bounces
-        } else {
-            bounce == self.max_bounces
-        };
-        in_range
-            && match self.view {
-                BounceView::All => true,
-                BounceView::Direct => bounce <= 1,
-                BounceView::Indirect => bounce >= 2,
-            }
-    }
-}
-
-/// What the renderer computes per camera ray.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub enum Shading {
-    /// Colour = shading normal * 0.5 + 0.5 at the first hit.
-    Normals,
-    Path(PathSettings),
-}
-
 pub struct Integrator<'a, A: Accel> {
-    scene: &'a Scene,
+    pub(in crate::render) scene: &'a Scene,
     accel: &'a A,
-    shading: Shading,
-    lights: LightSet,
+    pub(in crate::render) shading: Shading,
+    pub(in crate::render) lights: LightSet,
     /// Radiance escaped rays see from above (sum of the ambient lights);
     /// the environment map adds to it.
-    ambient: Vec3,
+    pub(in crate::render) ambient: Vec3,
 }
 
 /// What the next vertex needs to weigh emission it finds against light
 /// sampling at the vertex a BSDF-sampled ray left.
 #[derive(Clone, Copy)]
-struct Previous {
+pub(in crate::render) struct Previous {
     /// The ray's density under BSDF sampling; 0 after a specular event
     /// (emission then counts fully).
-    bsdf_pdf: f32,
+    pub(in crate::render) bsdf_pdf: f32,
     /// Where the ray left, and which way that point faces (the ambient
     /// light is sampled around its normals).
-    from: Vec3,
-    facing: Facing,
+    pub(in crate::render) from: Vec3,
+    pub(in crate::render) facing: Facing,
 }
 
 /// The power heuristic weight of a strategy with density `a` (samples
@@ -288,7 +179,7 @@ impl<'a, A: Accel> Integrator<'a, A> {
     /// each infinite light weighted against its own light-sampling density
     /// (the ambient light and the map are sampled separately); otherwise
     /// nothing, light sampling has counted it.
-    fn escaped(&self, s: &PathSettings, prev: &Previous, dir: Vec3) -> Vec3 {
+    pub(in crate::render) fn escaped(&self, s: &PathSettings, prev: &Previous, dir: Vec3) -> Vec3 {
         if prev.bsdf_pdf == 0.0 {
             return self.sky(dir);
         }
@@ -320,7 +211,7 @@ impl<'a, A: Accel> Integrator<'a, A> {
     /// it.
     #[allow(clippy::too_many_arguments)]
     #[inline]
-    fn with_emission(
+    pub(in crate::render) fn with_emission(
         &self,
         total: Vec3,
         beta: Vec3,
@@ -358,15 +249,12 @@ impl<'a, A: Accel> Integrator<'a, A> {
 
     /// The path's ray arrives at `hit`: counts what it sees there (the
     /// sky if it missed, emission if it hit a light), and gives the
-    /// vertex it scatters from, unless the path ends here. `point` is the
-    /// hit's surface point where the caller computed it already (a wave's
-    /// hits, in lanes: [`crate::render::lanes`]).
+    /// vertex it scatters from, unless the path ends here.
     #[inline(always)]
-    fn arrive(
+    pub(in crate::render) fn arrive(
         &self,
         walk: &mut Walk,
         hit: Option<Hit>,
-        point: Option<&SurfacePoint>,
         s: &PathSettings,
     ) -> Option<Vertex<'a>> {
         let (ray, depth, prev) = (&walk.ray, walk.depth, &walk.prev);
@@ -376,10 +264,7 @@ impl<'a, A: Accel> Integrator<'a, A> {
             }
             return None;
         };
-        let sp = match point {
-            Some(sp) => *sp,
-            None => self.scene.surface_point(ray, &hit),
-        };
+        let sp = self.scene.surface_point(ray, &hit);
         let m = &self.scene.materials[sp.material as usize];
         let wo = -ray.dir;
         if s.counts(depth) {
@@ -439,7 +324,7 @@ impl<'a, A: Accel> Integrator<'a, A> {
     /// split off the path's at every vertex that is not specular, used or
     /// not, so the path's own random numbers do not depend on it.
     #[inline(always)]
-    fn light(
+    pub(in crate::render) fn light(
         &self,
         depth: u32,
         vertex: &Vertex,
@@ -461,7 +346,13 @@ impl<'a, A: Accel> Integrator<'a, A> {
     /// The path leaves `vertex` along a BSDF sample (after Russian
     /// roulette from the second vertex on); false if it ends there.
     #[inline(always)]
-    fn leave(&self, walk: &mut Walk, vertex: &Vertex, s: &PathSettings, rng: &mut Rng) -> bool {
+    pub(in crate::render) fn leave(
+        &self,
+        walk: &mut Walk,
+        vertex: &Vertex,
+        s: &PathSettings,
+        rng: &mut Rng,
+    ) -> bool {
         if walk.depth >= 1 {
             if let Some(p) = s.russian_roulette {
                 if rng.next_f32() >= p {
@@ -508,7 +399,7 @@ impl Vertex<'_> {
 /// A scattering vertex as direct lighting and BSDF sampling see it: where
 /// rays leave, the shading frame, the outgoing direction in it, and the
 /// material.
-struct Vertex<'s> {
+pub(in crate::render) struct Vertex<'s> {
     at: SpawnPoint,
     /// Where shadow rays leave, if not from `at` (see
     /// [`crate::scene::terminator_lift`]).

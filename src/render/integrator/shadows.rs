@@ -11,18 +11,18 @@ use crate::geom::Ray;
 /// samples of one light, or one light group) in order, then the group's
 /// mean added to the sum.
 #[derive(Clone, Copy, Default)]
-pub(super) struct DirectSum {
-    pub(super) sum: Vec3,
+pub(in crate::render) struct DirectSum {
+    pub(in crate::render) sum: Vec3,
     group: Vec3,
 }
 
 impl DirectSum {
-    pub(super) fn add(&mut self, term: Vec3) {
+    pub(in crate::render) fn add(&mut self, term: Vec3) {
         self.group += term;
     }
 
     /// Closes a group of `n` terms.
-    pub(super) fn mean(&mut self, n: u32) {
+    pub(in crate::render) fn mean(&mut self, n: u32) {
         self.sum += self.group / n as f32;
         self.group = Vec3::ZERO;
     }
@@ -32,7 +32,7 @@ impl DirectSum {
 /// a time ([`Now`]), or recorded with their shadow rays for one batch
 /// query over many paths ([`Deferred`], [`ShadowTape`]). Both sum the same
 /// terms in the same order, so the two give the same bits.
-pub(super) trait Shadows {
+pub(in crate::render) trait Shadows {
     /// A term without a shadow ray.
     fn term(&mut self, term: Vec3);
     /// A term that counts unless `shadow` is blocked (zero then).
@@ -45,10 +45,10 @@ pub(super) trait Shadows {
 }
 
 /// Shadow rays traced one at a time as direct lighting asks.
-pub(super) struct Now<'c, A> {
-    pub(super) accel: &'c A,
-    pub(super) counters: &'c mut TraceCounters,
-    pub(super) sum: DirectSum,
+pub(in crate::render) struct Now<'c, A> {
+    pub(in crate::render) accel: &'c A,
+    pub(in crate::render) counters: &'c mut TraceCounters,
+    pub(in crate::render) sum: DirectSum,
 }
 
 impl<A: Accel> Shadows for Now<'_, A> {
@@ -70,11 +70,10 @@ impl<A: Accel> Shadows for Now<'_, A> {
     }
 }
 
-/// The direct lighting of paths paused at a vertex
-/// ([`super::Integrator::arrive_at`]): each one's terms, and the shadow
-/// rays they wait on, which the caller answers with one batch query
-/// ([`Accel::occluded_all`]) before the paths go on
-/// ([`super::Integrator::go_on`]).
+/// The direct lighting of many paths' vertices (the wavefront's paths
+/// that the lanes do not step): each one's terms, and the shadow rays they
+/// wait on, which the caller answers with one batch query
+/// ([`Accel::occluded_all`]) before the paths go on.
 #[derive(Default)]
 pub struct ShadowTape {
     terms: Vec<Term>,
@@ -92,7 +91,7 @@ enum Term {
 /// One vertex's part of a tape: its terms, and where its shadow rays
 /// start.
 #[derive(Clone, Copy, Debug)]
-pub(super) struct Span {
+pub(in crate::render) struct Span {
     first_term: u32,
     end_term: u32,
     first_ray: u32,
@@ -101,7 +100,7 @@ pub(super) struct Span {
 impl Span {
     /// The part of `tape` written since it held `first_term` terms and
     /// `first_ray` rays ([`ShadowTape::ends`]).
-    pub(super) fn since(first_term: u32, first_ray: u32, tape: &ShadowTape) -> Span {
+    pub(in crate::render) fn since(first_term: u32, first_ray: u32, tape: &ShadowTape) -> Span {
         Span {
             first_term,
             end_term: tape.ends().0,
@@ -113,13 +112,13 @@ impl Span {
 impl ShadowTape {
     /// The bytes the tape's lists hold.
     pub fn held_bytes(&self) -> usize {
-        crate::render::wave::held(&self.terms) + crate::render::wave::held(&self.rays)
+        crate::render::times::held(&self.terms) + crate::render::times::held(&self.rays)
     }
 
     /// How many terms and rays the tape holds: where the next vertex's
     /// part starts. A tape holds one wave's paths, far fewer than 2^32
     /// terms.
-    pub(super) fn ends(&self) -> (u32, u32) {
+    pub(in crate::render) fn ends(&self) -> (u32, u32) {
         (self.terms.len() as u32, self.rays.len() as u32)
     }
 
@@ -136,7 +135,7 @@ impl ShadowTape {
 
     /// The direct lighting of `span`, given which of the tape's rays are
     /// blocked: the sum [`Now`] gives.
-    pub(super) fn sum(&self, span: &Span, blocked: &[bool]) -> Vec3 {
+    pub(in crate::render) fn sum(&self, span: &Span, blocked: &[bool]) -> Vec3 {
         let mut sum = DirectSum::default();
         let mut ray = span.first_ray as usize;
         for term in &self.terms[span.first_term as usize..span.end_term as usize] {
@@ -154,9 +153,9 @@ impl ShadowTape {
 }
 
 /// Records direct lighting's terms and shadow rays on a tape.
-pub(super) struct Deferred<'t> {
-    pub(super) tape: &'t mut ShadowTape,
-    pub(super) counters: &'t mut TraceCounters,
+pub(in crate::render) struct Deferred<'t> {
+    pub(in crate::render) tape: &'t mut ShadowTape,
+    pub(in crate::render) counters: &'t mut TraceCounters,
 }
 
 impl Shadows for Deferred<'_> {

@@ -1,9 +1,9 @@
 //! Which packet kernels a tree's batch queries run, chosen once per tree
 //! from the CPU and the options.
 
-#[cfg(target_arch = "x86_64")]
-use super::super::cpu::{Avx2, Avx512};
 use super::super::NativeOptions;
+#[cfg(target_arch = "x86_64")]
+use crate::simd::cpu::{Avx2, Avx512};
 
 /// Which packet kernels a tree's batch queries run.
 #[derive(Clone, Copy, Debug)]

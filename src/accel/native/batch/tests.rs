@@ -1,11 +1,11 @@
 use super::*;
-use crate::accel::native::cpu::Avx2;
 use crate::accel::native::NativeOptions;
 use crate::accel::native::MIXED_PACKET_NODES;
 use crate::accel::Accel;
 use crate::parity::rays::{occlusion_rays, shadow_rays};
 use crate::scene::builtin::CORNELL;
 use crate::scene::NormalMode;
+use crate::simd::cpu::Avx2;
 use glam::Vec3;
 
 /// The default scene and its tree with the default options, where the CPU

@@ -38,12 +38,12 @@ use std::mem::MaybeUninit;
 
 use glam::Vec3A;
 
-use super::cpu::Avx2;
 #[cfg(target_arch = "x86_64")]
 use super::node::COMPRESS;
 use super::node::{is_leaf, leaf_count, leaf_first, ChildRef, Node8, WIDTH};
 use super::tree::{Tree, MAX_DEPTH};
 use super::BOX_FAR_SCALE;
+use crate::simd::cpu::Avx2;
 
 /// Stack entries: each level leaves at most seven children behind, and a
 /// push writes eight.

@@ -1,46 +1,57 @@
-//! Sixteen floats side by side, for passes over a wave's paths kept in
-//! lists (structure of arrays): `render::integrator`'s wave in arrays and
-//! `examples/soa_step.rs`. Each operation is a loop over the sixteen
-//! lanes, always inlined; inside a function compiled for AVX-512 LLVM
-//! makes each loop one instruction, inside one compiled for AVX2 two, and
-//! elsewhere it is correct scalar code ([`Vectors`] proves which the CPU
-//! runs; [`lane_pass`] compiles a pass for both). Safe code throughout,
-//! and each lane's bits are those of the scalar operation: IEEE
-//! additions, products, quotients and square roots, comparisons as
-//! all-ones masks, selects instead of branches (docs/experiments.md, stop
-//! 51: `_mm256_*` intrinsics behind these methods stayed calls in a
-//! portable build, and branches kept a pass scalar). Sixteen lanes, not
-//! eight, since stop 60: with AVX-512 the stepping took 9-14% less time,
-//! measured against the tracing of the same run, and with AVX2 alone it
-//! lost nothing (docs/experiments.md).
+//! Sixteen floats side by side, for passes over many paths kept in lists
+//! (structure of arrays): the renderer's wavefront. Each operation is a
+//! loop over the sixteen lanes, always inlined; inside a function compiled
+//! for AVX-512 LLVM makes each loop one instruction, inside one compiled
+//! for AVX2 two, and in the scalar twin it is portable code (SSE2 at
+//! most). [`Vectors`] says which the CPU runs, [`lane_pass`] compiles a
+//! pass for all three. Safe code throughout, and each lane's bits are
+//! those of the scalar operation: IEEE additions, products, quotients and
+//! square roots, comparisons as all-ones masks, selects instead of
+//! branches (intrinsics behind these methods stayed calls in a portable
+//! build, and branches kept a pass scalar: docs/experiments.md).
 
-use crate::accel::native::cpu::{Avx2, Avx512};
+use crate::simd::cpu::{Avx2, Avx512};
 
 /// Lanes of an [`F16`]: the step of every pass.
 pub const LANES: usize = 16;
 
-/// The vectors a pass runs on, proved by the CPU: AVX-512 where it runs
-/// it (one instruction a lane loop), else AVX2 (two).
+/// The vectors a pass runs on: AVX-512 where the CPU runs it (one
+/// instruction a lane loop), else AVX2 (two), else the portable twin.
+/// The first two hold the token that proves the CPU runs them.
 #[derive(Clone, Copy, Debug)]
 pub enum Vectors {
+    Scalar,
     Avx2(Avx2),
     Avx512(Avx512),
 }
 
 impl Vectors {
-    /// The widest vectors the CPU runs, given its proof of AVX2.
-    pub fn widest(avx2: Avx2) -> Vectors {
-        Avx512::detect().map_or(Vectors::Avx2(avx2), Vectors::Avx512)
+    /// The widest vectors this CPU runs (and `HYBRID_ISA` allows).
+    pub fn widest() -> Vectors {
+        match (Avx512::detect(), Avx2::detect()) {
+            (Some(avx512), _) => Vectors::Avx512(avx512),
+            (None, Some(avx2)) => Vectors::Avx2(avx2),
+            (None, None) => Vectors::Scalar,
+        }
+    }
+
+    /// Their name, as `hybrid render` prints it.
+    pub fn name(self) -> &'static str {
+        match self {
+            Vectors::Scalar => "scalar",
+            Vectors::Avx2(_) => "AVX2",
+            Vectors::Avx512(_) => "AVX-512",
+        }
     }
 }
 
-/// `lane_pass!(name = body(args))`: `fn name(vectors: Vectors, args)`,
+/// `lane_pass!(vis name = body(args))`: `vis fn name(vectors: Vectors, args)`,
 /// which runs `body` (a pass over lanes, always inlined) compiled for
-/// AVX-512 or for AVX2, as `vectors` proves the CPU may. The two give the
-/// same bits: lane by lane, the scalar operations.
+/// AVX-512, for AVX2 or as portable code, as `vectors` says the CPU may.
+/// The three give the same bits: lane by lane, the scalar operations.
 macro_rules! lane_pass {
-    ($name:ident = $body:ident($($arg:ident: $ty:ty),* $(,)?)) => {
-        fn $name(vectors: $crate::render::wide::Vectors, $($arg: $ty),*) {
+    ($vis:vis $name:ident = $body:ident($($arg:ident: $ty:ty),* $(,)?)) => {
+        $vis fn $name(vectors: $crate::simd::lanes::Vectors, $($arg: $ty),*) {
             /// # Safety
             /// The CPU must run AVX2.
             #[target_feature(enable = "avx2")]
@@ -54,12 +65,13 @@ macro_rules! lane_pass {
                 $body($($arg),*)
             }
             match vectors {
+                $crate::simd::lanes::Vectors::Scalar => $body($($arg),*),
                 // SAFETY: an `Avx2` exists only where the CPU runs AVX2
                 // (`Avx2::detect`).
-                $crate::render::wide::Vectors::Avx2(_) => unsafe { avx2($($arg),*) },
+                $crate::simd::lanes::Vectors::Avx2(_) => unsafe { avx2($($arg),*) },
                 // SAFETY: an `Avx512` exists only where the CPU runs
                 // AVX-512F and AVX2 (`Avx512::detect`).
-                $crate::render::wide::Vectors::Avx512(_) => unsafe { avx512($($arg),*) },
+                $crate::simd::lanes::Vectors::Avx512(_) => unsafe { avx512($($arg),*) },
             }
         }
     };
@@ -327,5 +339,33 @@ impl std::ops::Neg for F16 {
     #[inline(always)]
     fn neg(self) -> F16 {
         self.each(|x| -x)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geom::sampling::sin_cos_turns;
+
+    /// Every number a generator's `next_f32` gives (`k / 2^24`) and the
+    /// turn's end: the lanes' sine and cosine have the scalar function's
+    /// bits.
+    #[test]
+    fn sines_and_cosines_in_lanes_have_the_scalar_bits() {
+        let mut lanes = [0.0f32; LANES];
+        for k in 0..=(1u32 << 24) {
+            lanes[k as usize % LANES] = k as f32 / (1u32 << 24) as f32;
+            if k as usize % LANES == LANES - 1 || k == 1 << 24 {
+                let (s16, c16) = F16(lanes).sin_cos_turns();
+                for (l, &t) in lanes.iter().enumerate() {
+                    let (s, c) = sin_cos_turns(t);
+                    assert_eq!(
+                        (s16.0[l].to_bits(), c16.0[l].to_bits()),
+                        (s.to_bits(), c.to_bits()),
+                        "turns {t}"
+                    );
+                }
+            }
+        }
     }
 }

@@ -1,0 +1,121 @@
+//! Sixteen generators side by side, each lane with
+//! [`Rng`](crate::geom::sampling::Rng)'s own bits.
+
+use super::lists::Rngs;
+use super::L;
+use crate::geom::sampling;
+use crate::simd::lanes::F16;
+
+/// Sixteen generators side by side: [`Rng`](sampling::Rng) lane by lane,
+/// its bits.
+#[derive(Clone, Copy)]
+pub(super) struct Rng16 {
+    state: [u64; L],
+    inc: [u64; L],
+}
+
+// Lane loops index their arrays, as `F16`'s do.
+#[allow(clippy::needless_range_loop)]
+impl Rng16 {
+    #[inline(always)]
+    pub(super) fn load(r: &Rngs, i: usize) -> Rng16 {
+        Rng16 {
+            state: r.state[i..i + L].try_into().expect("sixteen states"),
+            inc: r.inc[i..i + L].try_into().expect("sixteen increments"),
+        }
+    }
+
+    #[inline(always)]
+    pub(super) fn store(&self, r: &mut Rngs, i: usize) {
+        r.state[i..i + L].copy_from_slice(&self.state);
+        r.inc[i..i + L].copy_from_slice(&self.inc);
+    }
+
+    /// `Rng::next_u32` in the lanes of `mask`; the others keep their
+    /// state (their outputs are not used).
+    #[inline(always)]
+    pub(super) fn next_u32(&mut self, mask: F16) -> [u32; L] {
+        let mut out = [0; L];
+        for l in 0..L {
+            let old = self.state[l];
+            let new = sampling::step(old, self.inc[l]);
+            // All ones where the lane steps: a select without a branch.
+            let keep = 0u64.wrapping_sub(u64::from(mask.0[l].to_bits() != 0));
+            self.state[l] = (new & keep) | (old & !keep);
+            out[l] = sampling::output(old);
+        }
+        out
+    }
+
+    /// `Rng::next_f32` in the lanes of `mask`.
+    #[inline(always)]
+    pub(super) fn next_f32(&mut self, mask: F16) -> F16 {
+        F16::unit(&self.next_u32(mask))
+    }
+
+    /// `Rng::split`, every lane.
+    #[inline(always)]
+    pub(super) fn split(&mut self) -> Rng16 {
+        let all = F16::splat(f32::from_bits(u32::MAX));
+        let (hi, lo) = (self.next_u32(all), self.next_u32(all));
+        let mut child = Rng16 {
+            state: [0; L],
+            inc: [0; L],
+        };
+        for l in 0..L {
+            let key = (u64::from(hi[l]) << 32) | u64::from(lo[l]);
+            child.state[l] = sampling::mix(key);
+            child.inc[l] = sampling::split_inc(self.inc[l]);
+        }
+        child
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::geom::sampling::Rng;
+
+    /// Sixteen generators side by side give each generator's own numbers,
+    /// bit for bit: lanes masked out keep their state, and a split gives
+    /// each lane the child `Rng::split` gives.
+    #[test]
+    pub(super) fn generators_in_lanes_give_the_numbers_of_each_alone() {
+        let mut alone: Vec<Rng> = (0..L as u32)
+            .map(|l| Rng::for_sample(7, l, 3 * l, 11 + l))
+            .collect();
+        let mut rngs = Rngs::default();
+        rngs.sized(L);
+        for (l, r) in alone.iter().enumerate() {
+            rngs.set(l, r);
+        }
+        let mut lanes = Rng16::load(&rngs, 0);
+        let (on, off) = (f32::from_bits(u32::MAX), 0.0);
+        for round in 0..50 {
+            // Every third lane, shifted each round, sits out.
+            let mask = F16(std::array::from_fn(|l| {
+                if (l + round) % 3 == 0 {
+                    off
+                } else {
+                    on
+                }
+            }));
+            let out = lanes.next_f32(mask);
+            for (l, r) in alone.iter_mut().enumerate() {
+                if mask.is(l) {
+                    assert_eq!(out.0[l].to_bits(), r.next_f32().to_bits());
+                }
+            }
+        }
+        let children = lanes.split();
+        let mut split = Rngs::default();
+        split.sized(L);
+        lanes.store(&mut rngs, 0);
+        children.store(&mut split, 0);
+        for (l, r) in alone.iter_mut().enumerate() {
+            let child = r.split();
+            assert_eq!(rngs.get(l).parts(), r.parts(), "lane {l}");
+            assert_eq!(split.get(l).parts(), child.parts(), "lane {l}'s child");
+        }
+    }
+}
