@@ -1,5 +1,5 @@
 //! Developer tool: the bet of an occluder cache, measured on exported rays
-//! before any traversal is changed (docs/experiments.md, stop 51). A
+//! before any traversal is changed (docs/experiments.md). A
 //! cache would test the triangle that blocked the batch's last shadow ray
 //! (or one of its last four) before the tree; it can only pay where rays
 //! are blocked and neighbours are blocked by the same triangle. For each

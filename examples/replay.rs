@@ -17,7 +17,7 @@
 //! Mode `groups` traces each run of `REPLAY_GROUP` (16 unless set)
 //! consecutive rays as one batch query, as a renderer that keeps eight or
 //! sixteen paths in lanes from camera to end would trace each bounce of a
-//! group (docs/experiments.md, stop 58); full groups, so an upper bound.
+//! group (docs/experiments.md); full groups, so an upper bound.
 //!
 //! Prints Mrays/s, hits and box and primitive tests per ray for each mode;
 //! the loop is the report's own (`measure::trace_counted`, batch

@@ -405,7 +405,7 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
         if let Some([arrive, light, leave]) = waves.steps.shares().map(|s| s.map(|s| 100.0 * s)) {
             let t = waves.steps;
             say!(
-                "stepping in arrays: {:.3} s ({arrive:.0}%) taking the hits, {:.3} s ({light:.0}%) sampling the lights, {:.3} s ({leave:.0}%) summing light and leaving",
+                "stepping: {:.3} s ({arrive:.0}%) taking the hits, {:.3} s ({light:.0}%) sampling the lights, {:.3} s ({leave:.0}%) summing light and leaving",
                 t.arrive,
                 t.light,
                 t.leave
@@ -628,15 +628,13 @@ fn same_file(a: &Path, b: &Path) -> bool {
 /// Rays per native packet in the renderer: sixteen, in AVX-512 lanes or
 /// two AVX2 registers a value. Packets give every ray the single-ray
 /// kernel's answer at either width, so the image does not depend on this
-/// choice. On Zen 4 (stop 55, four alternating rounds, minimum seconds,
-/// 8 -> 16): CBempty 1.02 -> 0.903, maxplanck 0.707 -> 0.663, CBbunny
-/// 1.38 -> 1.33. On an Intel Xeon (model 207), stop 60, one thread
-/// pinned, `render -t 1 -r 160 120 -s 128 -m 5 -l 1 --seed 3`, median of
-/// 15-25 alternating pairs, time with 16 over time with 8: CBempty 0.84, maxplanck 0.85,
+/// choice. On Zen 4 (four alternating rounds, minimum seconds, 8 -> 16):
+/// CBempty 1.02 -> 0.903, maxplanck 0.707 -> 0.663, CBbunny 1.38 ->
+/// 1.33. On an Intel Xeon (model 207), one thread pinned, `render -t 1
+/// -r 160 120 -s 128 -m 5 -l 1 --seed 3`, median of 15-25 alternating
+/// pairs, time with 16 over time with 8: CBempty 0.84, maxplanck 0.85,
 /// sky/bunny 0.93, banana 0.94, the default scene 0.95, CBbunny 0.97,
-/// CBspheres 0.96, CBspheres_lambertian 0.99. Eight had been kept on
-/// Intel since stop 49, when shading was scalar between the packets and
-/// sixteen cost that frame 5-11% (docs/experiments.md).
+/// CBspheres 0.96, CBspheres_lambertian 0.99 (docs/experiments.md).
 pub fn render_packet_lanes() -> usize {
     16
 }

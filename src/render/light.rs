@@ -302,8 +302,8 @@ impl LightSet {
     /// The lights a vertex samples (the delta lights, then the others in
     /// their order), when they are all point and directional lights,
     /// rectangular area lights of the file's and the ambient light (no
-    /// emitting triangle or sphere, nor map): the lights a wave in arrays
-    /// samples in lanes ([`crate::render::integrator::ArrayPlan`]).
+    /// emitting triangle or sphere, nor map): the lights the wavefront
+    /// samples in lanes ([`crate::render::wavefront::Plan`]).
     pub fn plain(&self) -> Option<(&[Light], &[Light])> {
         let each = self.each.iter().all(|l| match l {
             Light::Area(a) => !a.triangle,

@@ -369,7 +369,7 @@ fn own_modes(modes: &[ModeFrames]) -> String {
             return String::new();
         }
         return format!(
-            "No backend's frame is surely slower with camera rays in batches (the renderer's default where waves in arrays do not apply) than with every ray alone (batched over alone {}).",
+            "No backend's frame is surely slower with camera rays in batches (the reference mode, the default where the wavefront's lanes do not take the scene) than with every ray alone (batched over alone {}).",
             range(&medians)
         );
     }

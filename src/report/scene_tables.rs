@@ -226,14 +226,14 @@ pub fn packets_section(results: &[SceneResult]) -> (String, Value) {
         ));
     }
     let md = format!(
-        "## Packets\n\nCamera rays and the light rays of the camera's first hits, traced in batches: native in packets of sixteen rays of one octant with AVX-512, else eight (an interval test of each node's children against the packet, then the single-ray slab test lane by lane, leaves tested all the packet's rays per triangle, a child entered by one ray handed to the single-ray kernel); Embree in each batched mode its version has, called from C (`rtcIntersect8`/`rtcIntersect16`, `rtcOccluded8`/`rtcOccluded16`, Embree 3's `rtcIntersect1M`/`rtcOccluded1M` stream), each mode with the coherent hint or without, whichever traced the rays faster in a trial (the best mode names it). One thread: Mrays/s by CPU time, interleaved rounds as the headline's; all threads: wall clock, each backend's batch query and single rays. Targets (issue 28): native packets at least 1.2x Embree's best mode on camera rays and 1.0x on light rays.\n\n{}\nFrame time with each wave's camera rays in packets (the renderer's default where waves in arrays do not apply) over every ray alone (below 1: packets are faster; the per-scene sections' frame, same image either way), the median of the ratios of frames rendered one after the other in each of the interleaved rounds, with its 95% interval in parentheses: {}.\n\n",
+        "## Packets\n\nCamera rays and the light rays of the camera's first hits, traced in batches: native in packets of sixteen rays of one octant with AVX-512, else eight (an interval test of each node's children against the packet, then the single-ray slab test lane by lane, leaves tested all the packet's rays per triangle, a child entered by one ray handed to the single-ray kernel); Embree in each batched mode its version has, called from C (`rtcIntersect8`/`rtcIntersect16`, `rtcOccluded8`/`rtcOccluded16`, Embree 3's `rtcIntersect1M`/`rtcOccluded1M` stream), each mode with the coherent hint or without, whichever traced the rays faster in a trial (the best mode names it). One thread: Mrays/s by CPU time, interleaved rounds as the headline's; all threads: wall clock, each backend's batch query and single rays. Targets (issue 28): native packets at least 1.2x Embree's best mode on camera rays and 1.0x on light rays.\n\n{}\nFrame time in the reference mode with each wave's camera rays in packets over every ray alone (`--no-packets`) (below 1: packets are faster; the per-scene sections' frame, same image either way), the median of the ratios of frames rendered one after the other in each of the interleaved rounds, with its 95% interval in parentheses: {}.\n\n",
         table.markdown(),
         frames.join("; ")
     );
     (md, json!({ "targets": table.json() }))
 }
 
-/// Each backend's frame in the renderer's three modes, and where the
+/// Each backend's frame in the renderer's three ways, and where the
 /// waves' time went.
 fn frames_table(r: &SceneResult) -> Table {
     let mut table = Table::new([
@@ -292,7 +292,7 @@ fn frames_table(r: &SceneResult) -> Table {
             percent(shares[2]),
         ];
         // The stepping's steps, as shares of the whole wave (empty where
-        // the wave did not run in arrays).
+        // nothing was timed).
         let steps = r.wave_times[i].steps.shares();
         cells.extend((0..3).map(|k| match steps {
             Some(s) => percent(shares[2] * s[k]),
@@ -322,7 +322,7 @@ pub fn section(results: &[SceneResult]) -> (String, Value) {
         let (w, h, spp) = r.frame;
         let frames = frames_table(r);
         md += &format!(
-            "### {} ({}: {} primitives)\n\n{}\n{}\nCamera and light rays in every batched mode, 1 thread (Mrays/s by CPU time; each Embree called from C):\n\n{}\nThe same on {} threads, through each backend's batch query ({}):\n\n{}\nTime per frame ({w}x{h}, {spp} spp, 3 bounces, light sampling, {} threads) in the renderer's three modes, the same image in each: camera rays in batches (`--no-waves`: the default where a wave in arrays does not take the scene), every ray alone (`--no-packets`), every bounce's rays of a wave of paths in batches (`--waves`: the default where a wave in arrays takes the scene, its paths' state in lists stepped eight at a time); \"default\" below is the camera-batched frame, and waves / default is the median of the per-round ratios with its 95% interval; the default and the waves again on one thread, the waves also as samples per second (every mode makes the same image, so this compares them at equal error); and the last columns say where the waves' thread time went (both thread counts) and the most memory one thread's wave held (its paths, rays, hits and shadow tape):\n\n{}\n",
+            "### {} ({}: {} primitives)\n\n{}\n{}\nCamera and light rays in every batched mode, 1 thread (Mrays/s by CPU time; each Embree called from C):\n\n{}\nThe same on {} threads, through each backend's batch query ({}):\n\n{}\nTime per frame ({w}x{h}, {spp} spp, 3 bounces, light sampling, {} threads) in the renderer's three ways, the same image in each: the reference mode, camera rays in batches and each path alone (`--mode reference`), the same with every ray alone (`--no-packets`), and the wavefront, every bounce's rays of a wave of paths in batches (`--mode wavefront`, the default where its lanes take the scene, its paths' state in lists stepped sixteen at a time); \"default\" below is the reference frame, and waves / default is the median of the per-round ratios with its 95% interval; the default and the waves again on one thread, the waves also as samples per second (every mode makes the same image, so this compares them at equal error); and the last columns say where the waves' thread time went (both thread counts) and the most memory one thread's wave held (its paths, rays, hits and shadow tape):\n\n{}\n",
             r.scene,
             r.size,
             r.primitives,

@@ -149,7 +149,7 @@ fn quick_report_writes_every_section_and_the_headline_figures() {
             .collect();
             assert!(percent.iter().all(|p| *p > 0.0), "{row}");
             assert!((percent.iter().sum::<f64>() - 100.0).abs() < 1e-6, "{row}");
-            // The stepping's steps, where the waves ran in arrays, make
+            // The stepping's steps, where the wavefront ran, make
             // up the stepping; elsewhere they are empty.
             let steps: Vec<Option<f64>> = [
                 "waves_arrive_percent",

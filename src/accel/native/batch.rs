@@ -349,7 +349,7 @@ impl Query for Occluded {
 
     /// As one stream ([`traverse::any_stream`]): incoherent occlusion rays
     /// share the nodes they enter (CBbunny's random shadow rays 1.3-1.4x
-    /// single rays, AVX2; docs/experiments.md, stop 43).
+    /// single rays, AVX2; docs/experiments.md).
     fn rest(
         bvh: &NativeBvh,
         blocks: &[TriangleBlock4],

@@ -114,7 +114,7 @@ impl Default for NativeOptions {
 /// as a packet: three quarters of its lanes; fewer go one at a time. With
 /// four of eight, AVX2 packets of diffuse bounce rays ran at 0.85x single
 /// rays (CBbunny and maxplanck); with six, 0.95-0.97x, camera rays alike
-/// and light rays alike or faster (docs/experiments.md, stop 43).
+/// and light rays alike or faster (docs/experiments.md).
 pub const fn min_packet(lanes: usize) -> u32 {
     (lanes as u32 * 3).div_ceil(4)
 }
@@ -146,7 +146,7 @@ pub const PREFETCH_GROUPS: usize = 2;
 /// sky/bunny 7.9 -> 4.2 and shadow 10.8 -> 8.7. With spheres the frames
 /// lost, though the triangles' exported rays gained (CBspheres 29.3 ->
 /// 31.9 and 81 -> 123): extension batches 0.44 -> 0.50 s on CBspheres,
-/// 0.51 -> 0.63 s on the default scene (docs/experiments.md, stop 53).
+/// 0.51 -> 0.63 s on the default scene (docs/experiments.md).
 pub const MIXED_PACKET_NODES: usize = 1 + node::WIDTH;
 
 /// A child that fewer of a packet's rays enter is handed to the single-ray
@@ -387,7 +387,7 @@ impl Accel for NativeBvh {
         // Incoherent rays that form no packet go as streams (a wave's
         // bounce rays 1.17-1.51x, random rays 0.94-1.23x single rays);
         // coherent ones alone (streams of the camera rays that form no
-        // packet cost maxplanck's frame 0.8%). docs/experiments.md, stop 47.
+        // packet cost maxplanck's frame 0.8%; docs/experiments.md).
         #[cfg(target_arch = "x86_64")]
         let plan = batch::Plan {
             streams: coherence == Coherence::Incoherent,

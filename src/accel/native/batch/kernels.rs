@@ -46,7 +46,7 @@ impl PacketKernels {
     /// for eight; else, with AVX2, eight rays where eight are asked for
     /// and otherwise sixteen in two registers per value, faster than eight
     /// on every ray set measured since packets set up only the lanes that
-    /// enter the root (docs/experiments.md, stop 47).
+    /// enter the root (docs/experiments.md).
     pub(in crate::accel::native) fn detect(options: &NativeOptions) -> PacketKernels {
         if !options.simd {
             return PacketKernels::None;

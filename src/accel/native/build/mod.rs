@@ -23,7 +23,7 @@ pub enum BuildMethod {
     #[default]
     Sah,
     /// The binned SAH tree as the top-down splits leave it, grouped
-    /// largest child first (the builder until stop 57): what the moves and
+    /// largest child first (the earlier builder): what the moves and
     /// the grouping are measured against.
     SahTopDown,
     /// Object median on the widest centroid axis: the baseline the SAH is
