@@ -5,7 +5,7 @@ use std::path::PathBuf;
 
 use clap::Args;
 
-use crate::render::film::{check_writable, rate_path, write_files};
+use crate::render::film::{check_writable, rate_path, write_files, Film};
 use crate::render::part::{merge, read_part};
 
 #[derive(Args, Debug, Clone)]
@@ -19,7 +19,18 @@ pub struct MergeArgs {
 }
 
 pub fn run(args: &MergeArgs) -> Result<(), String> {
+    // The output's name first, then whether it would replace a part: both
+    // before any part is read.
+    Film::check_image_name(&args.output).map_err(|e| e.to_string())?;
     check_writable(&args.output).map_err(|e| e.to_string())?;
+    for part in &args.parts {
+        if names_the_same_file(&args.output, part) {
+            return Err(format!(
+                "-f {} is also a part of this merge; it would be overwritten: give the output its own name",
+                args.output.display()
+            ));
+        }
+    }
     let parts = args
         .parts
         .iter()
@@ -45,4 +56,14 @@ pub fn run(args: &MergeArgs) -> Result<(), String> {
         args.output.display()
     );
     Ok(())
+}
+
+/// Whether `a` and `b` name one file: the same existing file (device and
+/// inode), or the same path once made absolute.
+fn names_the_same_file(a: &std::path::Path, b: &std::path::Path) -> bool {
+    use std::os::unix::fs::MetadataExt;
+    match (std::fs::metadata(a), std::fs::metadata(b)) {
+        (Ok(x), Ok(y)) => x.dev() == y.dev() && x.ino() == y.ino(),
+        _ => std::path::absolute(a).ok() == std::path::absolute(b).ok(),
+    }
 }

@@ -90,11 +90,18 @@ const MAX_LINE: usize = 400;
 pub fn report_line(kind: &str, message: &str) {
     use std::io::Write;
     let flat = message.replace(['\n', '\r'], " ");
-    let line = match flat.char_indices().nth(MAX_LINE) {
-        Some((end, _)) => format!("{}… ({} bytes in all)", &flat[..end], flat.len()),
-        None => flat,
+    let prefix = format!("hybrid: {kind}: ");
+    // The cap is the whole line's, prefix and the note of a cut included.
+    let room = MAX_LINE.saturating_sub(prefix.chars().count());
+    let line = if flat.chars().count() <= room {
+        flat
+    } else {
+        let note = format!("… ({} bytes in all)", flat.len());
+        let keep = room.saturating_sub(note.chars().count());
+        let end = flat.char_indices().nth(keep).map_or(flat.len(), |(i, _)| i);
+        format!("{}{note}", &flat[..end])
     };
-    let _ = writeln!(std::io::stderr().lock(), "hybrid: {kind}: {line}");
+    let _ = writeln!(std::io::stderr().lock(), "{prefix}{line}");
 }
 
 /// Parses a command line (without the program's name) and checks what can

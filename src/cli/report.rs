@@ -35,6 +35,13 @@ pub fn run(args: &ReportArgs) -> Result<(), String> {
             scenes_dir.display()
         ));
     }
+    if args.threads > super::settings::MAX_THREADS {
+        return Err(format!(
+            "-t {}: at most {} threads (0 means one per core)",
+            args.threads,
+            super::settings::MAX_THREADS
+        ));
+    }
     let tile = match args.tile.as_deref() {
         Some(&[w, h]) if (8..=4096).contains(&w) && (8..=4096).contains(&h) => Some((w, h)),
         Some(t) => {

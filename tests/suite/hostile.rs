@@ -607,7 +607,7 @@ fn a_signal_during_the_write_leaves_nothing_behind() {
     let dir = common::scratch("hostile-signal");
     let partial = |dir: &Path| {
         files(dir).into_iter().find(|p| {
-            p.to_string_lossy().contains(".partial-")
+            p.to_string_lossy().ends_with(".partial")
                 && std::fs::metadata(p).is_ok_and(|m| m.len() > 0)
         })
     };

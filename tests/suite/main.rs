@@ -11,6 +11,7 @@ mod cli;
 mod embree_backend;
 mod hostile;
 mod hostile_inputs;
+mod hostile_round4;
 
 mod environment;
 mod integrators;

@@ -178,7 +178,7 @@ pub fn api() -> Result<&'static Embree4, String> {
     API.get_or_init(|| {
         let names = library::candidates("HYBRID_EMBREE4", SONAME, Some(library::EMBREE4_USER_DIR));
         let (lib, path) = library::open(&names).map_err(|e| {
-            format!("Embree 4 is not installed ({e}); run `bash scripts/setup.sh` (Debian 12: Embree 4.4 from the embreex wheel; Debian 13: apt-get install -y libembree-dev), or set HYBRID_EMBREE4 to a libembree4.so.4")
+            format!("Embree 4 is not installed ({e}); run `bash scripts/setup.sh` or set HYBRID_EMBREE4 to a libembree4.so.4")
         })?;
         library::check_version(&lib, &path, 4, "rtcForwardIntersect1", "rtcIntersect1M")?;
         // SAFETY: the library is Embree 4 (found by its SONAME or named by

@@ -26,8 +26,8 @@ pub(super) fn parse_vary(text: &str) -> Result<(String, Vec<String>), String> {
     let list: Vec<String> = if let Some((a, b)) =
         values.split_once("..").filter(|_| !values.contains(','))
     {
-        let (a, b): (i64, i64) = match (a.trim().parse(), b.trim().parse()) {
-            (Ok(a), Ok(b)) if a <= b && b - a < 64 => (a, b),
+        let (a, b): (i64, i64) = match (a.trim().parse::<i64>(), b.trim().parse::<i64>()) {
+            (Ok(a), Ok(b)) if a <= b && b.checked_sub(a).is_some_and(|d| d < 64) => (a, b),
             _ => {
                 return Err(bad(
                     "expected A..B with whole numbers A <= B, at most 64 values",

@@ -26,10 +26,42 @@ fn in_flight() -> MutexGuard<'static, InFlight> {
 }
 
 /// The temporary name `path` is written under: hidden, beside it, unique
-/// to this process.
+/// to this process and the name, and short whatever the name's length (a
+/// name of 255 bytes, the most a folder entry holds, still has one).
 fn temporary(path: &Path) -> PathBuf {
-    let name = path.file_name().and_then(|n| n.to_str()).unwrap_or("image");
-    path.with_file_name(format!(".{name}.partial-{}", std::process::id()))
+    temporary_as(path, "partial")
+}
+
+/// A hidden name beside `path` of the given kind, as [`temporary`].
+fn temporary_as(path: &Path, kind: &str) -> PathBuf {
+    use std::hash::{Hash, Hasher};
+    let mut h = std::collections::hash_map::DefaultHasher::new();
+    path.file_name().hash(&mut h);
+    path.with_file_name(format!(
+        ".hybrid-{}-{:016x}.{kind}",
+        std::process::id(),
+        h.finish()
+    ))
+}
+
+/// Creates `tmp` as a new file: never through what is already there (a
+/// symbolic link planted at the name would otherwise have its target
+/// truncated). An entry left at the name (by a crash of this process id,
+/// or planted) is removed first, the entry itself, not what it points to.
+fn create_new(tmp: &Path) -> std::io::Result<File> {
+    let open = || {
+        std::fs::OpenOptions::new()
+            .write(true)
+            .create_new(true)
+            .open(tmp)
+    };
+    match open() {
+        Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists => {
+            std::fs::remove_file(tmp)?;
+            open()
+        }
+        other => other,
+    }
 }
 
 /// `Err` when something other than a regular file has the output's name: a
@@ -37,6 +69,9 @@ fn temporary(path: &Path) -> PathBuf {
 /// image is renamed onto the name, which would replace such an entry
 /// rather than write through it, so it is refused instead.
 fn refuse_special(path: &Path) -> Result<(), String> {
+    if path.as_os_str().as_encoded_bytes().ends_with(b"/") {
+        return Err("ends with '/': that names a folder, not a file".into());
+    }
     match std::fs::symlink_metadata(path) {
         Ok(meta) if meta.is_dir() => Err("is a directory".into()),
         Ok(meta) if meta.file_type().is_symlink() => Err(
@@ -70,7 +105,7 @@ pub fn write_files(files: &[(&Path, ImageFile)]) -> Result<(), FilmError> {
                 if f.closing {
                     return Err(fail(path, "interrupted".into()));
                 }
-                let file = File::create(&tmp).map_err(|e| fail(path, e.to_string()))?;
+                let file = create_new(&tmp).map_err(|e| fail(path, e.to_string()))?;
                 f.paths.push(tmp.clone());
                 file
             };
@@ -91,18 +126,40 @@ pub fn write_files(files: &[(&Path, ImageFile)]) -> Result<(), FilmError> {
                 return Err(fail(path, "named twice in one write".into()));
             }
         }
-        let existed: Vec<bool> = files.iter().map(|(p, _)| p.exists()).collect();
-        for (k, ((path, _), tmp)) in files.iter().zip(&written).enumerate() {
-            if let Err(e) = std::fs::rename(tmp, path) {
-                // Only files this call created are removed; one that
-                // replaced an older file stays (the older one is gone).
-                for ((done, _), &old) in files[..k].iter().zip(&existed) {
-                    if !old {
+        // Each file already there is kept under a second name (a hard
+        // link) until every rename has succeeded: if one fails, the files
+        // renamed before it are put back as they were, so a failed write
+        // replaces nothing (the main image is not replaced when its
+        // companion cannot be).
+        let mut kept: Vec<Option<PathBuf>> = Vec::new();
+        for (path, _) in files {
+            let backup = temporary_as(path, "previous");
+            let _ = std::fs::remove_file(&backup);
+            kept.push(std::fs::hard_link(path, &backup).ok().map(|()| backup));
+        }
+        let restore = |k: usize| {
+            for ((done, _), old) in files[..k].iter().zip(&kept) {
+                match old {
+                    Some(backup) => {
+                        let _ = std::fs::rename(backup, done);
+                    }
+                    None => {
                         let _ = std::fs::remove_file(done);
                     }
                 }
+            }
+            for old in kept[k..].iter().flatten() {
+                let _ = std::fs::remove_file(old);
+            }
+        };
+        for (k, ((path, _), tmp)) in files.iter().zip(&written).enumerate() {
+            if let Err(e) = std::fs::rename(tmp, path) {
+                restore(k);
                 return Err(fail(path, e.to_string()));
             }
+        }
+        for old in kept.iter().flatten() {
+            let _ = std::fs::remove_file(old);
         }
         Ok(())
     });
@@ -122,7 +179,10 @@ pub fn write_files(files: &[(&Path, ImageFile)]) -> Result<(), FilmError> {
 pub const HOLD_WRITE_VARIABLE: &str = "HYBRID_TEST_HOLD_WRITE";
 
 fn hold_if_asked() {
-    if std::env::var_os(HOLD_WRITE_VARIABLE).is_some() {
+    // Only `1` holds: `0`, an empty value or anything else does not, as an
+    // option's value would be read (no test leaves a writer parked by a
+    // value that meant "off").
+    if std::env::var_os(HOLD_WRITE_VARIABLE).is_some_and(|v| v == "1") {
         loop {
             std::thread::park();
         }
@@ -138,7 +198,7 @@ pub fn check_writable(path: &Path) -> Result<(), FilmError> {
     };
     refuse_special(path).map_err(fail)?;
     let tmp = temporary(path);
-    File::create(&tmp).map_err(|e| fail(e.to_string()))?;
+    create_new(&tmp).map_err(|e| fail(e.to_string()))?;
     let _ = std::fs::remove_file(&tmp);
     Ok(())
 }
@@ -153,4 +213,36 @@ pub fn abandon_writes() {
         let _ = std::fs::remove_file(tmp);
     }
     std::mem::forget(f);
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A symbolic link planted at the temporary name does not let a write
+    /// truncate its target: the link is replaced by the new file, and the
+    /// target keeps its bytes; nothing is left at the temporary name.
+    #[test]
+    fn a_link_at_the_temporary_name_does_not_reach_its_target() {
+        let dir = std::env::temp_dir().join(format!("hybrid-files-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let (out, victim) = (dir.join("out.txt"), dir.join("victim.txt"));
+        std::fs::write(&victim, b"keep me").unwrap();
+        std::os::unix::fs::symlink(&victim, temporary(&out)).unwrap();
+        write_files(&[(&out, ImageFile::Text("new"))]).unwrap();
+        assert_eq!(std::fs::read(&victim).unwrap(), b"keep me");
+        assert_eq!(std::fs::read(&out).unwrap(), b"new");
+        assert!(std::fs::symlink_metadata(temporary(&out)).is_err());
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    /// The temporary name stays short for the longest name a folder
+    /// holds.
+    #[test]
+    fn temporary_names_fit_beside_any_name() {
+        let long = Path::new("x").join("n".repeat(255));
+        let tmp = temporary(&long);
+        assert!(tmp.file_name().unwrap().len() < 64, "{tmp:?}");
+        assert_eq!(tmp.parent(), long.parent());
+    }
 }

@@ -143,6 +143,18 @@ impl Film {
             .collect()
     }
 
+    /// `Err` unless `path` names an image file hybrid writes: `.png` or
+    /// `.exr`, checked before any work.
+    pub fn check_image_name(path: &Path) -> Result<(), FilmError> {
+        let ext = path.extension().and_then(|e| e.to_str());
+        match ext.map(|e| e.to_ascii_lowercase()).as_deref() {
+            Some("png") | Some("exr") => Ok(()),
+            _ => Err(FilmError::Format {
+                path: path.display().to_string(),
+            }),
+        }
+    }
+
     /// The image file for `path`: PNG (tone-mapped) or EXR (raw radiance)
     /// by the extension.
     pub fn file(&self, path: &Path, map: ToneMap) -> Result<ImageFile<'_>, FilmError> {
