@@ -18,7 +18,7 @@ use crate::choice::Choice;
 use crate::render::camera::CameraMode;
 use crate::render::film::{check_writable, rate_path, write_files, Exposure, Film, ToneMap};
 use crate::render::integrator::{Background, BounceView, DirectEstimator};
-use crate::render::{render, Mode, RenderOutput, RenderSettings};
+use crate::render::{render, Mode, RenderOutput, RenderSettings, Sampler};
 use crate::scene::environment::{EnvSampling, Environment};
 use crate::scene::{NormalMode, Scene};
 
@@ -88,6 +88,11 @@ pub struct RenderArgs {
     /// Seed: the same seed gives the same image for any thread count.
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
+    /// Which numbers camera samples draw: `sobol`, every dimension from an
+    /// Owen-scrambled Sobol sequence per pixel, or `independent`, R2 pixel
+    /// positions (the course's) and independent numbers elsewhere.
+    #[arg(long, value_parser = choice::<Sampler>(), default_value = Sampler::default().name())]
+    pub sampler: Sampler,
     /// How paths advance: `reference`, each path alone from its first hit
     /// (renders everything, on any CPU), or `wavefront`, a wave's paths
     /// together bounce by bounce, their state stepped sixteen at a time.
@@ -140,7 +145,7 @@ pub struct RenderArgs {
     pub russian_roulette: Option<f32>,
     /// Adaptive sampling: batches of BATCH samples until the 95% interval
     /// is within TOL of the mean.
-    #[arg(short = 'a', num_args = 2, value_names = ["BATCH", "TOL"])]
+    #[arg(short = 'a', num_args = 2, value_names = ["BATCH", "TOL"], allow_negative_numbers = true)]
     pub adaptive: Option<Vec<f64>>,
     /// Native backend: ray/triangle test.
     #[arg(long, value_parser = choice::<TriangleMode>(), default_value = TriangleMode::default().name())]
@@ -310,20 +315,7 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
         super::report_line("warning", &warning);
     }
     let output = args.output_path();
-    match output
-        .extension()
-        .and_then(|e| e.to_str())
-        .map(|e| e.to_ascii_lowercase())
-        .as_deref()
-    {
-        Some("png") | Some("exr") => {}
-        _ => {
-            return Err(format!(
-                "{}: unsupported output format (use .png or .exr)",
-                output.display()
-            ))
-        }
-    }
+    Film::check_image_name(&output).map_err(|e| e.to_string())?;
     // A missing or read-only folder fails now, not after the render.
     check_writable(&output).map_err(|e| e.to_string())?;
     if settings.adaptive.is_some() {

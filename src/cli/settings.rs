@@ -126,6 +126,7 @@ impl RenderArgs {
             sample_range: self.sample_range_checked(samples)?,
             lens: self.lens_checked()?,
             course_camera: self.course_camera()?,
+            sampler: self.sampler,
             mode: self.mode,
         })
     }

@@ -8,6 +8,7 @@
 //!   their state in lists, stepped sixteen at a time;
 //! - [`schedule`]: which of the two a render runs ([`Mode`]), and the
 //!   lists a thread's waves reuse;
+//! - [`sampler`]: which numbers a camera sample draws;
 //! - [`times`]: where a render's time and memory went;
 //! - [`film`], [`part`]: the image, its files, and parts merged;
 //! - [`mitsuba`]: the same render as a Mitsuba 3 scene.
@@ -24,6 +25,7 @@ pub mod light;
 pub mod material;
 pub mod mitsuba;
 pub mod part;
+pub mod sampler;
 pub mod schedule;
 pub mod times;
 pub mod wavefront;
@@ -39,12 +41,13 @@ use self::camera_file::CourseCamera;
 use self::film::Film;
 use self::film::Origin;
 use self::integrator::{Integrator, Shading};
+pub use self::sampler::Sampler;
 pub use self::schedule::Mode;
 use self::schedule::{WaveLists, SIDE_BY_SIDE};
 pub use self::times::WaveTimes;
 use self::wavefront::Plan;
 use crate::accel::{Accel, TraceCounters};
-use crate::geom::sampling::{luminance, pixel_position, Rng};
+use crate::geom::sampling::{luminance, Rng};
 use crate::geom::Ray;
 use crate::scene::Scene;
 
@@ -86,6 +89,8 @@ pub struct RenderSettings {
     pub lens: Option<ThinLens>,
     /// A camera file's camera (`-c`), instead of `camera`'s placement.
     pub course_camera: Option<CourseCamera>,
+    /// Which numbers the camera samples draw.
+    pub sampler: Sampler,
     /// How paths advance: one at a time or in a wavefront; `None`: as
     /// [`Mode::choose`] picks for the scene. The image is the same either
     /// way.
@@ -125,6 +130,7 @@ impl Default for RenderSettings {
             sample_range: None,
             lens: None,
             course_camera: None,
+            sampler: Sampler::default(),
             mode: None,
         }
     }
@@ -306,14 +312,8 @@ fn camera_sample(
     ray: &mut Ray,
     stream: &mut Rng,
 ) {
-    let mut rng = Rng::for_sample(settings.seed, x, y, i);
-    // One sample at the pixel centre when there is one sample; positions
-    // spread evenly over the pixel otherwise.
-    let (dx, dy) = if settings.samples.max(1) == 1 {
-        (0.5, 0.5)
-    } else {
-        pixel_position(settings.seed, x, y, i)
-    };
+    let samples = settings.samples.max(1);
+    let ((dx, dy), mut rng) = settings.sampler.start(settings.seed, (x, y, i), samples);
     let lens = camera.has_lens().then(|| rng.next_2d());
     let (origin, dir) = camera.origin_and_dir(x as f32 + dx, y as f32 + dy, lens);
     ray.origin = origin;

@@ -215,6 +215,7 @@ pub fn shared_scenes(quick: bool) -> Vec<&'static str> {
     all.extend(BRUTE_FORCE_SCENES);
     all.extend(NORMALS_SCENES);
     all.extend([SERIES_SCENE, SAMPLES_SCENE, SCANNED]);
+    all.extend(super::sampler::SCENES);
     all.sort_unstable();
     all.dedup();
     all

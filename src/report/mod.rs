@@ -5,7 +5,7 @@
 //!
 //! Sections, each measuring into typed rows: [`scenes`] (per-scene builds
 //! and traces), [`headline`] (read from the per-scene rows), [`brute`],
-//! [`error`], [`adaptive`], [`environment`], [`scaling`], [`gallery`]. [`table`] is the one writer of
+//! [`error`], [`sampler`], [`adaptive`], [`environment`], [`scaling`], [`gallery`]. [`table`] is the one writer of
 //! rows as Markdown and JSON; [`budget`] holds the sizes and scene lists;
 //! [`crate::measure`], [`plot`], [`sheet`] and [`machine`] are their tools.
 
@@ -20,6 +20,7 @@ pub mod headline;
 pub mod machine;
 pub mod paired;
 pub mod plot;
+pub mod sampler;
 pub mod scaling;
 pub mod scene_tables;
 pub mod scenes;
@@ -140,6 +141,8 @@ pub fn run(options: &ReportOptions, log: &mut dyn FnMut(&str)) -> Result<(), Str
     let error_study = error::measure(&budget, threads)?;
     error::plot(&error_study, out)?;
     step("speed against error measured");
+    let sampler_study = sampler::measure(&options.scenes_dir, options.quick, threads)?;
+    step("samplers measured");
     let adaptive_study = adaptive::measure(&options.scenes_dir, &budget, threads)?;
     step("adaptive against uniform measured");
     let environment_study = environment::measure(&budget, threads, out)?;
@@ -184,6 +187,7 @@ pub fn run(options: &ReportOptions, log: &mut dyn FnMut(&str)) -> Result<(), Str
         brute_table.markdown()
     );
     md += &error::markdown(&error_study);
+    md += &sampler::markdown(&sampler_study);
     md += &adaptive::markdown(&adaptive_study);
     md += &environment::markdown(&environment_study, &budget);
     md += &scaling::markdown(&scaling);
@@ -208,6 +212,7 @@ pub fn run(options: &ReportOptions, log: &mut dyn FnMut(&str)) -> Result<(), Str
             "equal_time_seconds": error_study.equal_time(),
             "equal_time": error::equal_time_table(&error_study).json(),
         },
+        "samplers": sampler::table(&sampler_study).json(),
         "adaptive_vs_uniform": adaptive::table(&adaptive_study).json(),
         "environment": environment::table(&environment_study).json(),
         "scaling": {

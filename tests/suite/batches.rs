@@ -21,7 +21,7 @@ use hybrid::render::integrator::{
     Background, BounceView, DirectEstimator, Integrator, PathSettings, Shading,
 };
 use hybrid::render::wavefront::{lanes_take, Plan};
-use hybrid::render::{render, Adaptive, Mode, RenderSettings, Silent};
+use hybrid::render::{render, Adaptive, Mode, RenderSettings, Sampler, Silent};
 use hybrid::scene::Scene;
 use hybrid::simd::lanes::Vectors;
 
@@ -423,7 +423,8 @@ fn batching_leaves_the_image_unchanged() {
 /// MIS, light sampling
 /// and hemisphere sampling (whose vertices all go path by path), several
 /// light samples, Russian roulette, `-o 0`, direct light only, a black
-/// background and adaptive sampling, on one thread and three; normals in
+/// background and adaptive sampling, the Sobol sampler (the default) and
+/// independent numbers, on one thread and three; normals in
 /// the two reference ways. The wavefront's lanes take these frames but
 /// for hemisphere sampling, whose vertices all go path by path.
 #[test]
@@ -487,6 +488,14 @@ fn the_modes_give_the_same_bits() {
             }),
             ..with_path(PathSettings {
                 max_bounces: 4,
+                ..PathSettings::default()
+            })
+        },
+        RenderSettings {
+            sampler: Sampler::Independent,
+            ..with_path(PathSettings {
+                max_bounces: 5,
+                russian_roulette: Some(0.8),
                 ..PathSettings::default()
             })
         },

@@ -245,6 +245,17 @@ fn quick_report_writes_every_section_and_the_headline_figures() {
         md.contains("### Embree 4 against Embree 3"),
         "no Embree 3 / Embree 4 table"
     );
+    // The samplers: both on every scene, estimator and sample count, each
+    // with its relative MSE, time and efficiency; the section says the
+    // range of Sobol's gains.
+    let samplers = json["samplers"].as_array().expect("sampler rows");
+    assert_eq!(samplers.len(), 4 * 2 * 2 * 2, "{samplers:?}");
+    for r in samplers {
+        for key in ["rel_mse", "seconds", "efficiency"] {
+            positive(&r[key], key);
+        }
+    }
+    assert!(md.contains("## Samplers: error at equal samples and at equal time"));
     // Adaptive against uniform: one row per scene, each with a winner.
     let adaptive = json["adaptive_vs_uniform"]
         .as_array()

@@ -101,7 +101,7 @@ pub(super) fn leave_lanes(s: &PathSettings, wave: &mut Wave) {
         let mut beta = v3(&wave.beta, i);
         beta = map3!(beta, |x| F16::select(rolled.and(survives), x / p, x));
         // `material::sample`'s two numbers (a Lambertian surface).
-        let (u0, u1) = (rng.next_f32(going), rng.next_f32(going));
+        let (u0, u1) = rng.next_2d(going);
         rng.store(&mut wave.rng, i);
         let local = cosine_hemisphere8(u0, u1);
         let (s, t, n) = (v3(&wave.s, i), v3(&wave.t, i), v3(&wave.ns, i));

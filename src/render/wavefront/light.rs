@@ -135,8 +135,9 @@ pub(super) fn light_draws_lanes(wave: &mut Wave) {
     let all = F16::splat(f32::from_bits(u32::MAX));
     for i in (0..wave.padded).step_by(L) {
         let mut light = Rng16::load(&wave.light_rng, i);
-        light.next_f32(all).store(&mut wave.draws[0][i..]);
-        light.next_f32(all).store(&mut wave.draws[1][i..]);
+        let (u, v) = light.next_2d(all);
+        u.store(&mut wave.draws[0][i..]);
+        v.store(&mut wave.draws[1][i..]);
         light.store(&mut wave.light_rng, i);
     }
 }
