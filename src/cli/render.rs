@@ -124,8 +124,9 @@ pub struct RenderArgs {
     pub hemisphere: bool,
     /// Direct lighting: multiple importance sampling of lights and BSDF,
     /// light sampling only, or uniform hemisphere sampling.
-    #[arg(long, value_parser = choice::<DirectEstimator>(), default_value = DirectEstimator::default().name())]
-    pub estimator: DirectEstimator,
+    /// [default: mis]
+    #[arg(long, value_parser = choice::<DirectEstimator>())]
+    pub estimator: Option<DirectEstimator>,
     /// Samples per area light (or hemisphere samples with -H).
     #[arg(short = 'l', default_value_t = 1)]
     pub light_samples: u32,
@@ -313,6 +314,9 @@ pub fn run(args: &RenderArgs) -> Result<(), String> {
     let settings = args.settings()?;
     for warning in args.warnings() {
         super::report_line("warning", &warning);
+    }
+    if let Some(note) = args.course_note() {
+        say!("{note}");
     }
     let output = args.output_path();
     Film::check_image_name(&output).map_err(|e| e.to_string())?;

@@ -268,7 +268,7 @@ impl RenderArgs {
             estimator: if self.hemisphere {
                 DirectEstimator::Hemisphere
             } else {
-                self.estimator
+                self.estimator.unwrap_or_default()
             },
             light_samples: self.light_samples,
             max_bounces: self.max_bounces(),
@@ -277,6 +277,26 @@ impl RenderArgs {
             russian_roulette: self.russian_roulette(),
             background: self.background,
         })
+    }
+
+    /// What a course-style command line gets that the course's framework
+    /// would not give it: with `-l` and no `--estimator`, direct lighting
+    /// is MIS, where the course's is light sampling alone; and Russian
+    /// roulette is off unless `--rr` is given. `None` for normals, or when
+    /// the estimator was chosen.
+    pub fn course_note(&self) -> Option<String> {
+        let course = self.light_samples != 1 || self.max_bounces.is_some();
+        if self.normals || self.hemisphere || self.estimator.is_some() || !course {
+            return None;
+        }
+        let roulette = if self.russian_roulette().is_none() {
+            ", and no Russian roulette (--rr P turns it on)"
+        } else {
+            ""
+        };
+        Some(format!(
+            "note: direct lighting by MIS (light and BSDF sampling combined){roulette}; the course's estimator is light sampling alone: add --estimator light for its images"
+        ))
     }
 
     /// Options this run ignores, one line each (printed once per command,
@@ -288,7 +308,7 @@ impl RenderArgs {
         }
         if self.normals {
             let mut ignored = Vec::new();
-            if self.hemisphere || self.estimator != DirectEstimator::default() {
+            if self.hemisphere || self.estimator.is_some() {
                 ignored.push("-H/--estimator");
             }
             if self.light_samples != 1 {

@@ -279,11 +279,49 @@ pub fn answer(results: &[SceneResult]) -> String {
         })
         .collect();
     format!(
-        "**In short:** {} of that Embree's speed (greater than 1: native is faster; one thread unless said, over the {} scenes below, figures marked ⚠ included). {}\n\n",
+        "{}**In short:** {} of that Embree's speed (greater than 1: native is faster; one thread unless said, over the {} scenes below, figures marked ⚠ included). {}\n\n",
+        which_is_faster(results),
         parts.join("; "),
         results.len(),
         own_modes(&modes)
     )
+}
+
+/// The report's first sentence: which backend is faster here, and where
+/// it is not, the worst case named (scene, measure, ratio) against each
+/// Embree; every ratio is native's speed over that Embree's.
+pub fn which_is_faster(results: &[SceneResult]) -> String {
+    let mut said = Vec::new();
+    for (j, rival) in rivals(results) {
+        let mut all: Vec<(String, String, f64)> = Vec::new();
+        for r in results {
+            for (what, ratio) in one_thread_ratios(r, j) {
+                all.push((r.scene.clone(), what, ratio));
+            }
+            all.push((r.scene.clone(), "frames".into(), r.frame_ratio(j)));
+        }
+        let all: Vec<_> = all.into_iter().filter(|m| m.2.is_finite()).collect();
+        let Some(worst) = all.iter().min_by(|a, b| a.2.total_cmp(&b.2)) else {
+            continue;
+        };
+        let ahead = all.iter().filter(|m| m.2 > 1.0).count();
+        let (scene, what, ratio) = worst;
+        said.push(if ratio > &1.0 {
+            format!(
+                "native is faster than {rival} on all {} measures; its smallest lead is {what} on {scene}, {ratio:.2}x",
+                all.len()
+            )
+        } else {
+            format!(
+                "native is faster than {rival} on {ahead} of {} measures, and slower at worst on {scene}'s {what}, {ratio:.2}x its speed",
+                all.len()
+            )
+        });
+    }
+    if said.is_empty() {
+        return String::new();
+    }
+    format!("**Which is faster here:** {}.\n\n", said.join("; "))
 }
 
 /// One one-thread ray measure against an Embree: its ratio, and whether

@@ -408,3 +408,33 @@ fn options_a_mode_ignores_are_warned_about_in_one_line_each() {
         text(&o)
     );
 }
+
+/// A course-style command line (`-l`, `-m`) without `--estimator` is told
+/// that direct lighting is MIS and roulette off, where the course's
+/// framework samples the lights alone; with the estimator named, or for
+/// normals, nothing is said.
+#[test]
+fn a_course_command_line_is_told_which_estimator_it_gets() {
+    let Some(scene) = common::shared("sky/CBbunny.dae") else {
+        return;
+    };
+    let dir = common::scratch("cli-course-note");
+    let scene = scene.to_str().unwrap();
+    let note = "the course's estimator is light sampling alone";
+    for (extra, said) in [
+        (&["-l", "4"][..], true),
+        (&["-m", "3"][..], true),
+        (&["-l", "4", "--estimator", "light"][..], false),
+        (&["-l", "4", "--estimator", "mis"][..], false),
+        (&[][..], false),
+    ] {
+        let mut args = vec!["render", scene, "-r", "8", "6", "-f", "n.png"];
+        args.extend(extra);
+        let o = hybrid(&args, &dir);
+        assert!(o.status.success(), "{}", text(&o));
+        assert_eq!(text(&o).contains(note), said, "{extra:?}: {}", text(&o));
+        if said {
+            assert!(text(&o).contains("no Russian roulette"), "{}", text(&o));
+        }
+    }
+}

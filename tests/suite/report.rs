@@ -32,12 +32,24 @@ fn quick_report_writes_every_section_and_the_headline_figures() {
     ] {
         assert!(md.contains(section), "report.md lacks '{section}'");
     }
-    // The answer comes first, one sentence with every Embree present:
-    // coherent and incoherent rays, builds and frames.
-    let answer = md
-        .split("\n\n")
-        .nth(1)
-        .expect("a paragraph after the title");
+    // The first sentence says which backend is faster here and names the
+    // worst case against each Embree; then the answer, one sentence with
+    // every Embree present: coherent and incoherent rays, builds and
+    // frames.
+    let mut paragraphs = md.split("\n\n").skip(1);
+    let first = paragraphs.next().expect("a paragraph after the title");
+    assert!(
+        first.starts_with("**Which is faster here:** native is faster than "),
+        "{first}"
+    );
+    for rival in ["embree3", "embree4"] {
+        assert!(first.contains(rival), "{first}");
+    }
+    assert!(
+        first.contains("at worst on") || first.contains("smallest lead"),
+        "{first}"
+    );
+    let answer = paragraphs.next().expect("the answer");
     assert!(answer.starts_with("**In short:** against "), "{answer}");
     for needed in [
         "embree3",
@@ -52,7 +64,7 @@ fn quick_report_writes_every_section_and_the_headline_figures() {
             "the answer lacks '{needed}': {answer}"
         );
     }
-    assert_eq!(json_answer(&out), answer.trim());
+    assert_eq!(json_answer(&out), format!("{first}\n\n{}", answer.trim()));
     // The verdict opens the report, before any table: one paragraph per
     // Embree present.
     let opening = &md[..md.find("## Headline").expect("a headline")];
