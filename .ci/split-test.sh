@@ -187,7 +187,7 @@ cat >"$work/dies-mid-write" <<WRAP
 for a; do
   if [ "\$a" = 2/6 ] && mkdir "$work/died" 2>/dev/null; then
     HYBRID_TEST_HOLD_WRITE=1 "$hybrid" "\$@" & pid=\$!
-    for _ in \$(seq 300); do compgen -G "$work/killed/.part-2.exr.partial-*" >/dev/null && break; sleep 0.1; done
+    for _ in \$(seq 300); do compgen -G "$work/killed/.hybrid-*.partial" >/dev/null && break; sleep 0.1; done
     kill -KILL \$pid
     kill -KILL \$\$
   fi
@@ -198,7 +198,7 @@ chmod +x "$work/dies-mid-write"
 HYBRID="$work/dies-mid-write" bash scripts/slurm-render.sh -n 6 -f "$work/killed.png" --parts "$work/killed" -- "${args[@]}" 2>"$work/killed.err" || {
   cat "$work/killed.err" >&2; exit 1; }
 [ -d "$work/died" ] || { echo "split-test: band 2 was never killed" >&2; exit 1; }
-compgen -G "$work/killed/.part-2.exr.partial-*" >/dev/null || { echo "split-test: the killed task left no half-written file" >&2; exit 1; }
+compgen -G "$work/killed/.hybrid-*.partial" >/dev/null || { echo "split-test: the killed task left no half-written file" >&2; exit 1; }
 grep -q "bands 0,1,2,3,4,5: the job array reported a failure" "$work/killed.err"
 cmp "$work/single.png" "$work/killed.png"
 echo "split-test: a Slurm task killed mid-write is rerun by a second array; its half-written file is ignored; the merge is the single render's bytes"
