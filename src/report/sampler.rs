@@ -245,13 +245,24 @@ pub fn table(study: &SamplerStudy) -> Table {
 
 /// The section: one sentence, then the table and how to reproduce it.
 pub fn markdown(study: &SamplerStudy) -> String {
-    let gains = study.gains();
-    let (lo, hi) = gains
+    // Each Sobol point with its gain, the worst first.
+    let mut gains: Vec<(&SamplerPoint, f64)> = study
+        .points
         .iter()
-        .fold((f64::INFINITY, 0.0f64), |(a, b), &g| (a.min(g), b.max(g)));
+        .filter(|p| p.sampler == Sampler::Sobol)
+        .filter_map(|p| Some((p, study.twin(p, Sampler::Independent)?.rel_mse / p.rel_mse)))
+        .collect();
+    gains.sort_by(|a, b| a.1.total_cmp(&b.1));
+    let summary = match (gains.first(), gains.last()) {
+        (Some((worst, lo)), Some((best, hi))) => format!(
+            "independent numbers' relative MSE over Sobol's at equal samples (above 1: Sobol is better) runs from {lo:.2}x at worst ({}, {}, {} spp) to {hi:.2}x ({}, {}, {} spp)",
+            worst.scene, worst.estimator, worst.spp, best.scene, best.estimator, best.spp
+        ),
+        _ => "no points".into(),
+    };
     let (w, h) = study.budget.resolution;
     format!(
-        "## Samplers: error at equal samples and at equal time\n\nThe Sobol sampler (`--sampler sobol`: every dimension pair from an Owen-scrambled Sobol sequence per pixel) against independent numbers (`--sampler independent`: R2 pixel positions, PCG32 elsewhere): Sobol's relative MSE is {lo:.2}-{hi:.2}x lower at equal samples here (worst first). Native, {w}x{h}, {} bounces, one light sample, {} threads, the mean of {SEEDS} seeds per point, against a {}-spp reference rendered with independent numbers on another seed; efficiency is 1 / (relMSE x seconds). Reproduce: `hybrid report` (this section), or any point with `hybrid render SCENE -r {w} {h} -s N -m {} --sampler sobol|independent`.\n\n{}\n",
+        "## Samplers: error at equal samples and at equal time\n\nThe Sobol sampler (`--sampler sobol`: every dimension pair from an Owen-scrambled Sobol sequence per pixel) against independent numbers (`--sampler independent`: R2 pixel positions, PCG32 elsewhere): {summary}. Native, {w}x{h}, {} bounces, one light sample, {} threads, the mean of {SEEDS} seeds per point, against a {}-spp reference rendered with independent numbers on another seed; efficiency is 1 / (relMSE x seconds). Reproduce: `hybrid report` (this section), or any point with `hybrid render SCENE -r {w} {h} -s N -m {} --sampler sobol|independent`.\n\n{}\n",
         MAX_BOUNCES,
         study.threads,
         study.budget.reference_spp,
