@@ -24,7 +24,8 @@ pub fn run(args: &MergeArgs) -> Result<(), String> {
     Film::check_image_name(&args.output).map_err(|e| e.to_string())?;
     check_writable(&args.output).map_err(|e| e.to_string())?;
     for part in &args.parts {
-        if names_the_same_file(&args.output, part) {
+        let same_path = std::path::absolute(&args.output).ok() == std::path::absolute(part).ok();
+        if same_path || super::render::same_file(&args.output, part) {
             return Err(format!(
                 "-f {} is also a part of this merge; it would be overwritten: give the output its own name",
                 args.output.display()
@@ -56,14 +57,4 @@ pub fn run(args: &MergeArgs) -> Result<(), String> {
         args.output.display()
     );
     Ok(())
-}
-
-/// Whether `a` and `b` name one file: the same existing file (device and
-/// inode), or the same path once made absolute.
-fn names_the_same_file(a: &std::path::Path, b: &std::path::Path) -> bool {
-    use std::os::unix::fs::MetadataExt;
-    match (std::fs::metadata(a), std::fs::metadata(b)) {
-        (Ok(x), Ok(y)) => x.dev() == y.dev() && x.ino() == y.ino(),
-        _ => std::path::absolute(a).ok() == std::path::absolute(b).ok(),
-    }
 }

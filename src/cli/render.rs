@@ -613,7 +613,7 @@ fn write_mitsuba(dir: &Path, scene: &Scene, settings: &RenderSettings) -> Result
 }
 
 /// Whether `a` and `b` are the same existing file (device and inode).
-fn same_file(a: &Path, b: &Path) -> bool {
+pub(super) fn same_file(a: &Path, b: &Path) -> bool {
     use std::os::unix::fs::MetadataExt;
     match (std::fs::metadata(a), std::fs::metadata(b)) {
         (Ok(x), Ok(y)) => x.dev() == y.dev() && x.ino() == y.ino(),

@@ -125,7 +125,7 @@ impl Rng {
     /// Whether this draws Sobol points (else PCG32 numbers).
     #[inline(always)]
     pub(crate) fn is_sobol(&self) -> bool {
-        self.inc & 1 == 0
+        is_sobol(self.inc)
     }
 
     /// The next dimension pair of a Sobol point.
@@ -162,6 +162,13 @@ impl Rng {
         }
         (self.next_f32(), self.next_f32())
     }
+}
+
+/// Whether a generator whose second word is `inc` draws Sobol points:
+/// PCG32's increment is always odd, a Sobol seed even.
+#[inline(always)]
+pub(crate) fn is_sobol(inc: u64) -> bool {
+    inc & 1 == 0
 }
 
 /// A number uniform in [0, 1) from 32 random bits (their top 24).

@@ -198,16 +198,6 @@ impl SamplerStudy {
                 && q.spp == p.spp
         })
     }
-
-    /// Per point of the Sobol sampler: independent's relative MSE over
-    /// Sobol's at equal samples (above 1: Sobol is better).
-    pub fn gains(&self) -> Vec<f64> {
-        self.points
-            .iter()
-            .filter(|p| p.sampler == Sampler::Sobol)
-            .filter_map(|p| Some(self.twin(p, Sampler::Independent)?.rel_mse / p.rel_mse))
-            .collect()
-    }
 }
 
 /// Every point, with Sobol's gain over independent at equal samples and

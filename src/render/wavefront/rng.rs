@@ -23,8 +23,11 @@ impl Rng16 {
     #[inline(always)]
     pub(super) fn load(r: &Rngs, i: usize) -> Rng16 {
         let inc: [u64; L] = r.inc[i..i + L].try_into().expect("sixteen increments");
-        let sobol = sampling::Rng::from_parts(0, inc[0]).is_sobol();
-        debug_assert!(inc.iter().all(|&c| (c & 1 == 0) == sobol), "one kind");
+        let sobol = sampling::is_sobol(inc[0]);
+        debug_assert!(
+            inc.iter().all(|&c| sampling::is_sobol(c) == sobol),
+            "one kind"
+        );
         Rng16 {
             state: r.state[i..i + L].try_into().expect("sixteen states"),
             inc,
