@@ -5,6 +5,7 @@
 //! a plain C program calls it. Another program reading the same files
 //! (`docs/rays.md` has a C reader) measures the same rays.
 
+pub mod corpus;
 pub mod file;
 pub mod waves;
 
@@ -14,9 +15,9 @@ use crate::accel::config::compared;
 use crate::accel::{Backend, BackendConfig};
 use crate::geom::ray::FlatRay;
 use crate::geom::Ray;
-use crate::measure::paired::{compare, compare_batched, PairedRow};
+use crate::measure::paired::{compare, compare_batched, compare_plain, PairedRow};
 pub use crate::measure::Settle;
-use crate::measure::{ray_sets, RAY_KINDS};
+use crate::measure::{ray_sets, time_repeats, Measured, Query, RAY_KINDS};
 pub use crate::report::paired::{batched_table, table};
 use crate::scene::builder::SceneBuilder;
 use crate::scene::{Material, NormalMode, Scene};
@@ -249,4 +250,218 @@ pub fn replay(dir: &Path, settle: Settle, batched: bool) -> Result<Vec<PairedRow
         ));
     }
     Ok(rows)
+}
+
+/// The kinds a corpus replay times: the report's camera, incoherent and
+/// shadow rays, and the renderer's own bounce rays, as rays and as waves.
+pub const CORPUS_KINDS: [&str; 5] = ["camera", "incoherent", "shadow", "bounce", "wave bounce"];
+
+/// Whether `dir` holds a corpus (`hybrid rays corpus`): no triangles of
+/// its own, and a folder with triangles.
+pub fn is_corpus(dir: &Path) -> bool {
+    !dir.join(TRIANGLES).exists()
+        && corpus::names()
+            .iter()
+            .any(|n| dir.join(n).join(TRIANGLES).is_file())
+}
+
+/// Whether a corpus export may write `dir`: a new folder, or one that
+/// holds nothing but corpus folders, each an export's own. Reads only.
+pub fn check_corpus_dir(dir: &Path) -> Result<(), String> {
+    if dir.as_os_str().is_empty() {
+        return Err("rays corpus: DIR is empty: name the folder to write".into());
+    }
+    if !dir.exists() {
+        return Ok(());
+    }
+    if !dir.is_dir() {
+        return Err(format!(
+            "{}: is not a folder: write the corpus into a new folder or a corpus's own",
+            dir.display()
+        ));
+    }
+    let names = corpus::names();
+    let entries = std::fs::read_dir(dir)
+        .map_err(|e| format!("{}: cannot read the folder: {e}", dir.display()))?;
+    for entry in entries.flatten() {
+        let name = entry.file_name().to_string_lossy().into_owned();
+        let folder = entry.file_type().is_ok_and(|t| t.is_dir());
+        if !folder || !names.contains(&name) {
+            return Err(format!(
+                "{}: holds {name}, which no corpus export writes: write the corpus into a new folder or a corpus's own",
+                dir.display()
+            ));
+        }
+        check_export_dir(&entry.path())?;
+    }
+    Ok(())
+}
+
+/// Writes every corpus mesh's export into `dir/<mesh>/`, one mesh at a
+/// time (each loaded or generated, exported and dropped), about `n` rays
+/// of each kind; `progress` hears each mesh as it is done.
+pub fn export_corpus(
+    scenes: &Path,
+    dir: &Path,
+    n: usize,
+    mut progress: impl FnMut(&str, &Exported),
+) -> Result<(), String> {
+    check_corpus_dir(dir)?;
+    // Every shared scene is read before anything is written, so a missing
+    // one is found before minutes of work.
+    for rel in corpus::SHARED {
+        let path = scenes.join(rel);
+        if !path.is_file() {
+            return Err(format!(
+                "{}: not found: the corpus needs every shared mesh ({})",
+                path.display(),
+                corpus::SHARED.join(", ")
+            ));
+        }
+    }
+    std::fs::create_dir_all(dir)
+        .map_err(|e| format!("{}: cannot create the folder: {e}", dir.display()))?;
+    for name in corpus::names() {
+        let scene = corpus::load(scenes, &name)?;
+        let out = export(&scene, &dir.join(&name), n)?;
+        progress(&name, &out);
+    }
+    Ok(())
+}
+
+/// One corpus mesh's replay: one-thread build times and every kind of
+/// [`CORPUS_KINDS`] it has, native against each Embree as a plain C
+/// caller at medium and high build quality.
+pub struct CorpusMesh {
+    pub name: String,
+    pub triangles: usize,
+    /// Median wall time of one-thread builds, seconds, per backend (the
+    /// order of [`corpus_backends`]).
+    pub builds: Vec<(String, Measured)>,
+    pub rows: Vec<PairedRow>,
+}
+
+/// The corpus replay's backends: native, then each Embree present at
+/// medium (its default) and high build quality, on one thread.
+pub fn corpus_backends() -> Vec<BackendConfig> {
+    let all = [
+        BackendConfig::NATIVE,
+        BackendConfig::EMBREE,
+        BackendConfig::EMBREE_HIGH,
+        BackendConfig::EMBREE4,
+        BackendConfig::EMBREE4_HIGH,
+    ];
+    all.into_iter()
+        .filter(|c| c.available().is_ok())
+        .map(|c| c.with_threads(1))
+        .collect()
+}
+
+/// Replays every mesh of the corpus in `dir` ([`is_corpus`]), in the
+/// corpus's order, on one thread; `progress` hears each mesh as it is done.
+pub fn replay_corpus(
+    dir: &Path,
+    settle: Settle,
+    mut progress: impl FnMut(&CorpusMesh),
+) -> Result<Vec<CorpusMesh>, String> {
+    let mut out = Vec::new();
+    for name in corpus::names() {
+        let mesh_dir = dir.join(&name);
+        if !mesh_dir.join(TRIANGLES).is_file() {
+            continue;
+        }
+        let triangles =
+            file::read_triangles(&mesh_dir.join(TRIANGLES)).map_err(|e| e.to_string())?;
+        let mut sets = Vec::new();
+        for kind in CORPUS_KINDS {
+            let path = mesh_dir.join(file_name(kind));
+            if path.exists() {
+                let (query, flat) = file::read_rays(&path).map_err(|e| e.to_string())?;
+                sets.push((kind, query, flat));
+            }
+        }
+        let mesh = replay_mesh(&name, &scene_of(&triangles, &name), &sets, settle)?;
+        progress(&mesh);
+        out.push(mesh);
+    }
+    if out.is_empty() {
+        return Err(format!(
+            "{}: no corpus meshes (hybrid rays corpus {} writes them)",
+            dir.display(),
+            dir.display()
+        ));
+    }
+    Ok(out)
+}
+
+/// One corpus ray set: its kind, query and rays.
+pub type CorpusSet = (&'static str, Query, Vec<FlatRay>);
+
+/// The corpus's ray sets of `scene` made in memory, as `rays corpus`
+/// writes them: about `n` rays of each kind of [`CORPUS_KINDS`].
+pub fn corpus_sets(scene: &Scene, n: usize) -> Result<Vec<CorpusSet>, String> {
+    let finder = BackendConfig::NATIVE
+        .build(scene)
+        .map_err(|e| e.to_string())?;
+    let mut sets = Vec::new();
+    let made = ray_sets(scene, &finder, n)
+        .into_iter()
+        .map(|s| (s.kind, s.query, s.rays))
+        .chain(waves::wave_sets(scene, &finder, n));
+    for (kind, query, rays) in made {
+        if CORPUS_KINDS.contains(&kind) && !rays.is_empty() {
+            sets.push((kind, query, rays.iter().map(Ray::flat).collect()));
+        }
+    }
+    Ok(sets)
+}
+
+/// One mesh's replay: its one-thread builds, then each set on one thread,
+/// native against each Embree as a plain C caller.
+pub fn replay_mesh(
+    name: &str,
+    scene: &Scene,
+    sets: &[(&str, Query, Vec<FlatRay>)],
+    settle: Settle,
+) -> Result<CorpusMesh, String> {
+    let configs = corpus_backends();
+    let builds = configs
+        .iter()
+        .map(|c| {
+            let took =
+                crate::measure::on_threads(1, || time_repeats(3, || c.build(scene).map(|_| ())));
+            (c.label(), took)
+        })
+        .collect();
+    let backends = configs
+        .iter()
+        .map(|c| Ok((c.label(), c.build(scene)?)))
+        .collect::<Result<Vec<_>, crate::accel::AccelError>>()
+        .map_err(|e| e.to_string())?;
+    let refs: Vec<(String, &Backend)> = backends.iter().map(|(l, b)| (l.clone(), b)).collect();
+    let rows = sets
+        .iter()
+        .map(|(kind, query, flat)| {
+            crate::measure::on_threads(1, || compare_plain(kind, *query, flat, &refs, settle))
+        })
+        .collect();
+    Ok(CorpusMesh {
+        name: name.to_string(),
+        triangles: scene.triangle_count(),
+        builds,
+        rows,
+    })
+}
+
+/// The fastest plain-C Embree run of a row, if any.
+pub fn best_embree(row: &PairedRow) -> Option<&crate::measure::paired::Run> {
+    row.runs
+        .iter()
+        .filter(|r| r.plain_c)
+        .max_by(|a, b| a.cpu.median.total_cmp(&b.cpu.median))
+}
+
+/// Native over the best Embree of a row.
+pub fn over_best(row: &PairedRow) -> Option<f64> {
+    best_embree(row).map(|b| row.runs[0].cpu.median / b.cpu.median)
 }

@@ -7,7 +7,7 @@ use std::path::PathBuf;
 use clap::{Args, Subcommand};
 
 use super::SceneInput;
-use crate::bench::{batched_table, export, replay, table};
+use crate::bench::{batched_table, export, export_corpus, is_corpus, replay, replay_corpus, table};
 use crate::measure::{on_threads, Settle};
 use crate::scene::NormalMode;
 
@@ -22,6 +22,24 @@ pub enum RaysCommand {
     /// Write a scene's triangles (transforms applied) and every ray kind of
     /// the report into DIR (format: docs/rays.md).
     Export(ExportArgs),
+    /// Write the mesh corpus the traversal is judged on: every shared mesh
+    /// and four generated ones, one export each in DIR/<mesh>/; `hybrid
+    /// bench DIR` replays them all, worst mesh first.
+    Corpus(CorpusArgs),
+}
+
+#[derive(Args, Debug, Clone)]
+pub struct CorpusArgs {
+    /// The folder to write (created if missing; its corpus folders are
+    /// replaced).
+    pub dir: PathBuf,
+    /// Folder of the shared scenes (default: HYBRID_SCENES or
+    /// ../shared/scenes).
+    #[arg(long)]
+    pub scenes: Option<PathBuf>,
+    /// Rays per kind and mesh.
+    #[arg(long, default_value_t = 1_000_000, value_parser = clap::value_parser!(u64).range(1..=(1 << 26)))]
+    pub rays: u64,
 }
 
 #[derive(Args, Debug, Clone)]
@@ -68,6 +86,14 @@ pub fn check_rays(args: &RaysArgs) -> Result<(), String> {
             )?;
             crate::bench::check_export_dir(&a.dir)
         }
+        RaysCommand::Corpus(a) => {
+            // One mesh's export is held at a time.
+            crate::input::check_memory(
+                &format!("--rays {}", a.rays),
+                a.rays.saturating_mul(EXPORT_BYTES_PER_RAY),
+            )?;
+            crate::bench::check_corpus_dir(&a.dir)
+        }
     }
 }
 
@@ -99,6 +125,18 @@ pub fn run_rays(args: &RaysArgs) -> Result<(), String> {
             );
             Ok(())
         }
+        RaysCommand::Corpus(a) => {
+            let scenes = a.scenes.clone().unwrap_or_else(super::shared_scenes_dir);
+            export_corpus(&scenes, &a.dir, a.rays as usize, |name, out| {
+                say!(
+                    "{name}: {} triangles, {} ray sets",
+                    out.triangles,
+                    out.sets.len()
+                );
+            })?;
+            say!("wrote the corpus to {}", a.dir.display());
+            Ok(())
+        }
     }
 }
 
@@ -120,6 +158,9 @@ pub fn run_bench(args: &BenchArgs) -> Result<(), String> {
         max: args.max_rounds as usize,
         within: args.within / 100.0,
     };
+    if is_corpus(&args.dir) {
+        return bench_corpus(args, settle);
+    }
     let rows = on_threads(1, || replay(&args.dir, settle, args.batched))?;
     say!(
         "Replay of {} on one thread: Mrays/s by the thread's CPU time (median and range of the rounds); every run of a kind interleaved, rounds until each ratio to native is known within ±{}% (95% interval of the median of the per-round ratios) or --max-rounds (then ⚠).\n",
@@ -132,6 +173,32 @@ pub fn run_bench(args: &BenchArgs) -> Result<(), String> {
         table(&rows)
     };
     say!("{}", table.markdown());
+    Ok(())
+}
+
+/// `hybrid bench` on a corpus: every mesh replayed, then the answer, the
+/// worst mesh per kind, every mesh's rays and the builds.
+fn bench_corpus(args: &BenchArgs, settle: Settle) -> Result<(), String> {
+    use crate::report::corpus::{answer, build_table, trace_table, worst_table};
+    if args.batched {
+        return Err(format!(
+            "--batched: {} is a corpus; replay one mesh's folder in it to compare the batched modes",
+            args.dir.display()
+        ));
+    }
+    let meshes = replay_corpus(&args.dir, settle, |m| {
+        eprintln!("{}: replayed", m.name);
+    })?;
+    say!(
+        "Corpus {} on one thread: native against each Embree called as plain C at medium and high build quality; Mrays/s by the thread's CPU time, rounds until each ratio to native is known within ±{}% or --max-rounds (then ⚠).\n",
+        args.dir.display(),
+        args.within
+    );
+    say!("**{}**\n", answer(&meshes));
+    say!("{}", worst_table(&meshes).markdown());
+    say!("{}", trace_table(&meshes).markdown());
+    say!("One-thread builds, median of 3 (milliseconds):\n");
+    say!("{}", build_table(&meshes).markdown());
     Ok(())
 }
 

@@ -76,15 +76,42 @@ pub fn compare(
     backends: &[(String, &Backend)],
     settle: Settle,
 ) -> PairedRow {
+    compare_runs(kind, query, flat, backends, settle, true)
+}
+
+/// [`compare`] with each C library as a plain C caller only (no run
+/// through hybrid's wrapper): the corpus's replay, where only native and
+/// Embree at its best matter.
+pub fn compare_plain(
+    kind: &str,
+    query: Query,
+    flat: &[FlatRay],
+    backends: &[(String, &Backend)],
+    settle: Settle,
+) -> PairedRow {
+    compare_runs(kind, query, flat, backends, settle, false)
+}
+
+fn compare_runs(
+    kind: &str,
+    query: Query,
+    flat: &[FlatRay],
+    backends: &[(String, &Backend)],
+    settle: Settle,
+    wrappers: bool,
+) -> PairedRow {
     let rays: Vec<Ray> = flat.iter().map(Ray::from_flat).collect();
     let occluded = query == Query::Occluded;
     // (name, backend index, as a C caller, no batched hint)
     let mut runs: Vec<(String, usize, bool, Option<bool>)> = Vec::new();
     for (b, (label, accel)) in backends.iter().enumerate() {
-        if accel.plain_c().is_some() {
+        let c = accel.plain_c().is_some();
+        if c {
             runs.push((format!("{label} plain C"), b, true, None));
         }
-        runs.push((label.clone(), b, false, None));
+        if wrappers || !c {
+            runs.push((label.clone(), b, false, None));
+        }
     }
     // Run 0 is native's own; its answers are the row's hit count.
     let mut hits = 0;

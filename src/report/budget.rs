@@ -29,6 +29,8 @@ pub struct Budget {
     pub scaling_subdivisions: u32,
     pub scaling_clouds: Vec<u32>,
     pub scaling_rays: usize,
+    /// Rays per kind and mesh in the corpus section.
+    pub corpus_rays: usize,
     pub gallery: (u32, u32),
     pub gallery_spp: u32,
     pub spp_series: Vec<u32>,
@@ -72,6 +74,7 @@ impl Budget {
                 scaling_subdivisions: 3,
                 scaling_clouds: vec![2, 8, 32],
                 scaling_rays: 10_000,
+                corpus_rays: 20_000,
                 // Tiles large enough to read and samples enough that a
                 // single bounce's dim image shows (80x60 at 4 spp was a
                 // sheet of noise); about ten seconds on two cores.
@@ -103,6 +106,7 @@ impl Budget {
                 scaling_subdivisions: 4,
                 scaling_clouds: vec![2, 8, 32, 128],
                 scaling_rays: 100_000,
+                corpus_rays: 200_000,
                 gallery: (480, 360),
                 gallery_spp: 64,
                 spp_series: vec![1, 2, 4, 8, 16, 64, 256, 1024],
@@ -216,6 +220,7 @@ pub fn shared_scenes(quick: bool) -> Vec<&'static str> {
     all.extend(NORMALS_SCENES);
     all.extend([SERIES_SCENE, SAMPLES_SCENE, SCANNED]);
     all.extend(super::sampler::SCENES);
+    all.extend(crate::bench::corpus::SHARED);
     all.sort_unstable();
     all.dedup();
     all

@@ -12,6 +12,7 @@
 pub mod adaptive;
 pub mod brute;
 pub mod budget;
+pub mod corpus;
 pub mod environment;
 pub mod error;
 pub mod fireflies;
@@ -147,6 +148,8 @@ pub fn run(options: &ReportOptions, log: &mut dyn FnMut(&str)) -> Result<(), Str
     step("adaptive against uniform measured");
     let environment_study = environment::measure(&budget, threads, out)?;
     step("environment light measured");
+    let corpus_study = corpus::measure(&options.scenes_dir, &budget)?;
+    step("mesh corpus measured");
     let scaling = scaling::measure(&options.scenes_dir, &budget)?;
     scaling::plot(&scaling, out)?;
     step("scaling measured");
@@ -190,6 +193,7 @@ pub fn run(options: &ReportOptions, log: &mut dyn FnMut(&str)) -> Result<(), Str
     md += &sampler::markdown(&sampler_study);
     md += &adaptive::markdown(&adaptive_study);
     md += &environment::markdown(&environment_study, &budget);
+    md += &corpus::markdown(&corpus_study, budget.corpus_rays);
     md += &scaling::markdown(&scaling);
     md += &gallery_md;
     md += &format!(
@@ -215,6 +219,12 @@ pub fn run(options: &ReportOptions, log: &mut dyn FnMut(&str)) -> Result<(), Str
         "samplers": sampler::table(&sampler_study).json(),
         "adaptive_vs_uniform": adaptive::table(&adaptive_study).json(),
         "environment": environment::table(&environment_study).json(),
+        "corpus": {
+            "answer": corpus::answer(&corpus_study),
+            "worst": corpus::worst_table(&corpus_study).json(),
+            "rays": corpus::trace_table(&corpus_study).json(),
+            "builds": corpus::build_table(&corpus_study).json(),
+        },
         "scaling": {
             "rows": scaling::table(&scaling).json(),
             "slopes": scaling::slopes_table(&scaling).json(),

@@ -442,6 +442,55 @@ fn an_exported_set_replays_with_the_same_hits_on_every_backend() {
     }
 }
 
+/// Issue 73: the corpus export writes one replayable folder per mesh,
+/// every shared mesh and the generated ones, and `bench` on it answers
+/// with the worst mesh first and times every mesh.
+#[test]
+fn the_corpus_is_every_mesh_and_its_bench_names_the_worst_first() {
+    let Some(scenes) = common::scenes_dir() else {
+        return;
+    };
+    let scenes = scenes.to_string_lossy().into_owned();
+    let dir = common::scratch("corpus");
+    let args = ["rays", "corpus", "c", "--rays", "3000", "--scenes", &scenes];
+    common::succeeds(&args, &dir);
+    let names = hybrid::bench::corpus::names();
+    assert_eq!(names.len(), 10);
+    for name in &names {
+        let folder = dir.join("c").join(name);
+        assert!(folder.join("triangles.bin").is_file(), "{name}");
+        assert!(folder.join("camera.rays").is_file(), "{name}");
+        assert!(folder.join("wave_bounce.rays").is_file(), "{name}");
+    }
+    let o = common::hybrid(
+        &["bench", "c", "--min-rounds", "3", "--max-rounds", "3"],
+        &dir,
+    );
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let first = out.lines().find(|l| l.starts_with("**")).unwrap_or("");
+    assert!(first.contains("the worst is"), "no answer first: {out}");
+    for name in &names {
+        assert!(
+            out.contains(&format!("| {name} |")),
+            "{name} missing: {out}"
+        );
+    }
+    for needle in ["worst mesh", "native / best Embree", "ms |"] {
+        assert!(out.contains(needle), "lacks '{needle}': {out}");
+    }
+    // A folder holding anything else is refused, and left as it was.
+    std::fs::write(dir.join("c").join("notes.txt"), "mine").unwrap();
+    fails(&dir, &args, &["notes.txt", "no corpus export writes"]);
+    assert_eq!(
+        std::fs::read(dir.join("c").join("notes.txt")).unwrap(),
+        b"mine"
+    );
+    // A replay of a corpus in batched modes is refused in one line.
+    std::fs::remove_file(dir.join("c").join("notes.txt")).unwrap();
+    fails(&dir, &["bench", "c", "--batched"], &["--batched", "corpus"]);
+}
+
 /// Issue 46, class 7: a library override naming the other Embree major
 /// version is refused in one line (it segfaulted after loading), and so is
 /// a library that is no Embree at all; nothing is written.

@@ -281,6 +281,18 @@ fn quick_report_writes_every_section_and_the_headline_figures() {
             "no finding for {scene}"
         );
     }
+    // The mesh corpus: every mesh timed, the worst named first.
+    assert!(md.contains("## The mesh corpus"));
+    let corpus_rows = json["corpus"]["rays"].as_array().expect("corpus rows");
+    for name in hybrid::bench::corpus::names() {
+        assert!(
+            corpus_rows.iter().any(|r| r["mesh"] == name.as_str()),
+            "corpus lacks {name}"
+        );
+    }
+    assert!(json["corpus"]["answer"]
+        .as_str()
+        .is_some_and(|a| a.contains("the worst is")));
     let rows = json["scaling"]["rows"].as_array().unwrap();
     assert!(
         rows.last().unwrap()["triangles"].as_f64().unwrap() >= 1e6 * 0.99,
